@@ -1,0 +1,153 @@
+"""Disk cache of meshes, keyed by a hash of everything the mesh depends on.
+
+Key: sha256 of the canonical JSON of (kind, geometry fields, mesh sizes,
+resolution, gmsh version, :data:`MESH_FORMAT_VERSION`). Entries are ``.npz``
+files (no pickles) written atomically: a temporary file in the same directory,
+then :func:`os.replace`, so a reader never sees half a file. An entry that
+cannot be read, or whose stored content hash does not match its arrays, is
+reported with :func:`warnings.warn` and recomputed, never used.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import os
+import tempfile
+import warnings
+from collections.abc import Callable
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from isj.design import Geometry
+
+    from .geometry import MeshSizes
+    from .mesh import TetMesh
+
+#: Bump whenever meshing or the stored layout changes in a way that changes meshes.
+MESH_FORMAT_VERSION = 1
+
+#: Environment variable overriding the default cache directory.
+CACHE_ENV = "ISJ_CACHE_DIR"
+
+
+class CacheWarning(UserWarning):
+    """A cache entry was unreadable or corrupt and has been recomputed."""
+
+
+def default_cache_dir() -> Path:
+    """``$ISJ_CACHE_DIR`` if set, else ``~/.cache/isj/meshes``."""
+    env = os.environ.get(CACHE_ENV)
+    return Path(env).expanduser() if env else Path.home() / ".cache" / "isj" / "meshes"
+
+
+def resolve_cache_dir(cache_dir: str | os.PathLike | bool | None) -> Path | None:
+    """None → default directory; False → None (cache disabled); a path → that path."""
+    if cache_dir is False:
+        return None
+    if cache_dir is None or cache_dir is True:
+        return default_cache_dir()
+    return Path(cache_dir)
+
+
+def _gmsh_version() -> str:
+    import gmsh
+
+    return str(gmsh.__version__)
+
+
+def cache_key(kind: str, geometry: Geometry, sizes: MeshSizes) -> str:
+    """sha256 (hex) of the canonical JSON of everything the mesh depends on."""
+    payload = {
+        "kind": kind,
+        "geometry": dataclasses.asdict(geometry),
+        "sizes": dataclasses.asdict(sizes),
+        "resolution": sizes.resolution,
+        "gmsh": _gmsh_version(),
+        "format": MESH_FORMAT_VERSION,
+    }
+    text = json.dumps(payload, sort_keys=True, separators=(",", ":"), allow_nan=False)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+_FACE_PREFIX = "face__"
+
+
+def save_mesh(mesh: TetMesh, path: Path) -> None:
+    """Write ``mesh`` to ``path`` (.npz) atomically."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    arrays = {
+        "points": mesh.points,
+        "tets": mesh.tets,
+        "region": mesh.region,
+        "region_names": np.array(mesh.region_names, dtype=str),
+        "content_hash": np.array(mesh.content_hash()),
+        "format": np.array(MESH_FORMAT_VERSION),
+    }
+    arrays.update({_FACE_PREFIX + k: v for k, v in mesh.faces.items()})
+    fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as f:
+            np.savez(f, **arrays)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def load_mesh(path: Path) -> TetMesh:
+    """Read a mesh written by :func:`save_mesh`; raise ValueError if it is inconsistent."""
+    from .mesh import TetMesh
+
+    with np.load(path, allow_pickle=False) as z:
+        if int(z["format"]) != MESH_FORMAT_VERSION:
+            raise ValueError(f"format {int(z['format'])} != {MESH_FORMAT_VERSION}")
+        faces = {k[len(_FACE_PREFIX) :]: z[k] for k in z.files if k.startswith(_FACE_PREFIX)}
+        mesh = TetMesh(
+            points=z["points"],
+            tets=z["tets"],
+            region=z["region"],
+            region_names=tuple(str(s) for s in z["region_names"]),
+            faces=faces,
+        )
+        stored = str(z["content_hash"])
+    if mesh.content_hash() != stored:
+        raise ValueError("content hash does not match the stored arrays")
+    return mesh
+
+
+def cached_mesh(
+    kind: str,
+    geometry: Geometry,
+    sizes: MeshSizes,
+    cache_dir: str | os.PathLike | bool | None,
+    compute: Callable[[], TetMesh],
+) -> TetMesh:
+    """Return the cached mesh for (kind, geometry, sizes), computing and storing it if needed.
+
+    A cache directory that cannot be written only costs a warning: the mesh is
+    still returned.
+    """
+    directory = resolve_cache_dir(cache_dir)
+    if directory is None:
+        return compute()
+    path = directory / f"{kind}-{cache_key(kind, geometry, sizes)[:32]}.npz"
+    if path.exists():
+        try:
+            return load_mesh(path)
+        except Exception as exc:  # any failure to read means: do not trust it
+            warnings.warn(
+                f"mesh cache entry {path} is unreadable ({exc}); recomputing",
+                CacheWarning,
+                stacklevel=3,
+            )
+    mesh = compute()
+    try:
+        save_mesh(mesh, path)
+    except OSError as exc:
+        warnings.warn(f"could not write mesh cache entry {path}: {exc}", CacheWarning, stacklevel=3)
+    return mesh

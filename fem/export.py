@@ -1,0 +1,69 @@
+"""Export to ParaView (VTU via meshio), written atomically.
+
+P2 fields go out on VTK ``tetra10`` cells (the node order of ``fem.elements``),
+so ParaView interpolates them quadratically. Point data: displacement (m);
+cell data: region id and mean strain-energy density (J/m³). Use ParaView's
+"Warp By Vector" on ``displacement_m`` to see the deformed model.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+
+def atomic_write(path: str | os.PathLike, write) -> Path:
+    """Call ``write(tmp_path)`` then move the file into place (no half-written output)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=path.parent)
+    os.close(fd)
+    try:
+        write(tmp)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path
+
+
+def atomic_write_text(path: str | os.PathLike, text: str) -> Path:
+    def write(tmp):
+        Path(tmp).write_text(text)
+
+    return atomic_write(path, write)
+
+
+def atomic_write_json(path: str | os.PathLike, obj) -> Path:
+    return atomic_write_text(path, json.dumps(obj, indent=2, sort_keys=True) + "\n")
+
+
+def write_vtu(path, space, displacement_m: np.ndarray, cell_data: dict[str, np.ndarray]) -> Path:
+    """Write a mesh with a displacement field and per-cell data to ``path`` (.vtu)."""
+    import meshio
+
+    cell_type = "tetra" if space.order == 1 else "tetra10"
+    mesh = meshio.Mesh(
+        points=space.points,
+        cells=[(cell_type, space.cells)],
+        point_data={"displacement_m": np.asarray(displacement_m, dtype=float).reshape(-1, 3)},
+        cell_data={k: [np.asarray(v)] for k, v in cell_data.items()},
+    )
+    return atomic_write(path, lambda tmp: meshio.write(tmp, mesh, file_format="vtu"))
+
+
+def write_model_vtu(path, model, result) -> Path:
+    """VTU of a solved ``PedicleJointModel``: displacement, region id, strain-energy density."""
+    return write_vtu(
+        path,
+        model.space,
+        result.displacement_m,
+        {
+            "region_id": model.space.region.astype(np.int32),
+            "strain_energy_density_j_m3": model.strain_energy_density(result),
+        },
+    )

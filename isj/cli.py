@@ -1,0 +1,321 @@
+"""Command line: ``isj fem solve | cases | convergence``.
+
+``main(argv=None) -> int`` so that tests call it directly. Bad input gives one
+line on stderr naming the parameter and its valid range, exit code 2, and no
+output file.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+from pathlib import Path
+
+from . import __version__
+from .design import DEFAULT_PRESSURE_PA, InvalidParameter, Materials
+
+EXIT_USAGE = 2
+
+
+class UsageError(ValueError):
+    """A command-line value is outside its valid range."""
+
+
+class _Parser(argparse.ArgumentParser):
+    """ArgumentParser whose errors are one line (``isj: error: ...``) and exit 2."""
+
+    def error(self, message: str):  # noqa: D401 - argparse API
+        raise UsageError(message)
+
+
+def _float(name: str, lo: float = -math.inf, hi: float = math.inf, lo_open=True, hi_open=True):
+    def parse(text: str) -> float:
+        try:
+            v = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name} = {text!r}: not a number") from None
+        ok = (
+            math.isfinite(v)
+            and (v > lo if lo_open else v >= lo)
+            and (v < hi if hi_open else v <= hi)
+        )
+        if not ok:
+            rng = f"{'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}"
+            raise argparse.ArgumentTypeError(f"{name} = {text}: must be a finite number in {rng}")
+        return v
+
+    return parse
+
+
+_MODULUS_OPTIONS = ("pedicle", "gap", "capsule", "plate", "stapes", "incus")
+
+
+def _add_design_options(p: argparse.ArgumentParser) -> None:
+    d = Materials()
+    for r in _MODULUS_OPTIONS:
+        p.add_argument(
+            f"--{r}-e",
+            metavar="PA",
+            type=_float(f"--{r}-e", lo=0.0),
+            default=d.youngs(r),
+            help=f"Young's modulus of the {r} (Pa, > 0; default {d.youngs(r):g})",
+        )
+    p.add_argument(
+        "--nu",
+        type=_float("--nu", -1.0, 0.5),
+        default=d.nu,
+        help=f"Poisson's ratio, in (-1, 0.5) (default {d.nu})",
+    )
+    p.add_argument(
+        "--pressure",
+        metavar="PA",
+        type=_float("--pressure"),
+        default=DEFAULT_PRESSURE_PA,
+        help=f"pressure on the incus's -x face (Pa; default {DEFAULT_PRESSURE_PA:g})",
+    )
+
+
+def _add_mesh_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--order", type=int, choices=(1, 2), default=2, help="P1 or P2 tetrahedra (default 2)"
+    )
+    p.add_argument(
+        "--resolution",
+        metavar="R",
+        type=_float("--resolution", lo=0.0),
+        default=1.0,
+        help="mesh refinement factor, > 0: 2 halves every element size (default 1)",
+    )
+    p.add_argument(
+        "--solver",
+        choices=("auto", "cholmod", "pardiso", "superlu"),
+        default="auto",
+        help="sparse direct solver (default: fastest installed)",
+    )
+
+
+def _materials(args) -> Materials:
+    return Materials(**{f"{r}_e_pa": getattr(args, f"{r}_e") for r in _MODULUS_OPTIONS}, nu=args.nu)
+
+
+def _check_out_path(path: str | None, flag: str, suffix: str) -> Path | None:
+    if path is None:
+        return None
+    p = Path(path)
+    if p.suffix.lower() != suffix:
+        raise UsageError(f"{flag} = {path!r}: must end in {suffix}")
+    if p.exists() and p.is_dir():
+        raise UsageError(f"{flag} = {path!r}: is a directory")
+    return p
+
+
+def _urad(x: float) -> str:
+    return f"{x * 1e6:9.4f}"
+
+
+def _cmd_solve(args) -> int:
+    from fem.export import write_model_vtu
+    from fem.model import PedicleJointModel
+
+    from .provenance import write_run_record
+
+    vtu = _check_out_path(args.vtu, "--vtu", ".vtu")
+    materials = _materials(args)
+    t0 = time.perf_counter()
+    model = PedicleJointModel(order=args.order, resolution=args.resolution, solver=args.solver)
+    res = model.solve(materials, args.pressure)
+    timings = dict(model.timings_s, total=time.perf_counter() - t0)
+    out = res.to_dict() | {
+        "n_tets": model.n_tets,
+        "n_dofs": model.n_dofs,
+        "order": args.order,
+        "resolution": args.resolution,
+        "solver": model.solver_name,
+        "mesh_hash": model.mesh.content_hash(),
+        "timings_s": timings,
+    }
+    if vtu is not None:
+        write_model_vtu(vtu, model, res)
+        write_run_record(vtu.with_suffix(".json"), args, out)
+    if args.json:
+        print(json.dumps(out))
+    else:
+        print(
+            f"P{args.order} mesh: {model.n_tets} tets, {model.n_dofs} dofs, solver {model.solver_name}"
+        )
+        print(
+            f"alpha      = {_urad(res.alpha_rad)} urad   (least squares {_urad(res.alpha_ls_rad)})"
+        )
+        print(f"beta       = {_urad(res.beta_rad)} urad   (least squares {_urad(res.beta_ls_rad)})")
+        print(f"alpha+beta = {_urad(res.sum_rad)} urad   beta/alpha = {res.ratio:.3f}")
+        print(f"max |u|    = {res.max_disp_m:.4e} m at {args.pressure:g} Pa")
+        frac = res.energy_fraction()
+        print("strain energy: " + ", ".join(f"{k} {100 * v:.1f}%" for k, v in frac.items()))
+        print(f"time: {timings['total']:.2f} s")
+        if vtu is not None:
+            print(f"wrote {vtu}")
+    return 0
+
+
+def _cmd_cases(args) -> int:
+    from fem.export import write_model_vtu
+    from fem.model import PedicleJointModel
+
+    from .cases import THESIS_BASE_ALPHA_RAD, THESIS_BASE_BETA_RAD, THESIS_CASES
+    from .provenance import write_run_record
+
+    vtu = _check_out_path(args.vtu, "--vtu", ".vtu")
+    base = Materials(nu=args.nu)
+    t0 = time.perf_counter()
+    model = PedicleJointModel(order=args.order, resolution=args.resolution, solver=args.solver)
+    rows, results = [], {}
+    for case in THESIS_CASES:
+        res = model.solve(case.materials(base), args.pressure)
+        results[case.name] = res
+        rows.append(
+            {
+                "case": case.name,
+                "pedicle_e_pa": case.pedicle_e_pa,
+                "gap_e_pa": case.gap_e_pa,
+                "capsule_e_pa": case.capsule_e_pa,
+            }
+            | res.to_dict()
+        )
+    elapsed = time.perf_counter() - t0
+    if vtu is not None:
+        write_model_vtu(vtu, model, results["base"])
+        write_run_record(
+            vtu.with_suffix(".json"),
+            args,
+            {"cases": rows, "n_tets": model.n_tets, "n_dofs": model.n_dofs},
+        )
+    if args.json:
+        print(json.dumps(rows))
+        return 0
+    print(
+        f"Seven thesis cases: P{args.order}, {model.n_tets} tets, {model.n_dofs} dofs, "
+        f"{args.pressure:g} Pa on the incus, solver {model.solver_name}, {elapsed:.1f} s"
+    )
+    print(
+        f"{'case':7} {'E_ped GPa':>9} {'E_gap MPa':>9} {'E_cap MPa':>9} {'alpha urad':>10} "
+        f"{'beta urad':>10} {'a+b urad':>9} {'beta/alpha':>10} {'ped. energy':>11}"
+    )
+    for r in rows:
+        print(
+            f"{r['case']:7} {r['pedicle_e_pa'] / 1e9:9.3g} {r['gap_e_pa'] / 1e6:9.3g} "
+            f"{r['capsule_e_pa'] / 1e6:9.3g} {r['alpha_rad'] * 1e6:10.4f} {r['beta_rad'] * 1e6:10.4f} "
+            f"{r['alpha_plus_beta_rad'] * 1e6:9.4f} {r['beta_over_alpha']:10.3f} "
+            f"{100 * r['strain_energy_fraction']['pedicle']:10.1f}%"
+        )
+    print(
+        f"thesis base case (Table 7.2): alpha {THESIS_BASE_ALPHA_RAD * 1e6:.3f}, "
+        f"beta {THESIS_BASE_BETA_RAD * 1e6:.2f}, alpha+beta "
+        f"{(THESIS_BASE_ALPHA_RAD + THESIS_BASE_BETA_RAD) * 1e6:.3f} urad"
+    )
+    if vtu is not None:
+        print(f"wrote {vtu} (base case)")
+    return 0
+
+
+def _cmd_convergence(args) -> int:
+    from fem.convergence import cantilever_study, plot_study
+
+    plot = _check_out_path(args.plot, "--plot", Path(args.plot).suffix.lower() if args.plot else "")
+    if plot is not None and plot.suffix.lower() not in (".png", ".pdf", ".svg"):
+        raise UsageError(f"--plot = {args.plot!r}: must end in .png, .pdf or .svg")
+    rows = cantilever_study(
+        direction=args.direction, order=args.order, nu=args.nu, resolutions=args.resolutions
+    )
+    if plot is not None:
+        plot_study(rows, plot, title=f"Pedicle cantilever, load in {args.direction}, P{args.order}")
+    if args.json:
+        print(json.dumps(rows))
+        return 0
+    print(
+        f"Pedicle cantilever (spec 2.6), shear load in {args.direction}, P{args.order}: "
+        f"max |u| against Timoshenko {rows[0]['analytic_m']:.4e} m"
+    )
+    print(f"{'n_tets':>8} {'n_dofs':>8} {'max_disp_m':>12} {'rel_error':>10}")
+    for r in rows:
+        print(f"{r['n_tets']:8d} {r['n_dofs']:8d} {r['max_disp_m']:12.4e} {r['rel_error']:+10.4f}")
+    if plot is not None:
+        print(f"wrote {plot}")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="isj", description="Mechanics of the incus-stapes coupling.")
+    parser.add_argument("--version", action="version", version=f"isj {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    fem = sub.add_parser("fem", help="the finite-element verifier")
+    fsub = fem.add_subparsers(dest="fem_command", required=True, parser_class=_Parser)
+
+    p = fsub.add_parser("solve", help="static solve of one design")
+    _add_design_options(p)
+    _add_mesh_options(p)
+    p.add_argument("--vtu", metavar="PATH", help="write the deformed model for ParaView (.vtu)")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=_cmd_solve)
+
+    p = fsub.add_parser("cases", help="the seven thesis cases (spec 2.5)")
+    p.add_argument(
+        "--nu",
+        type=_float("--nu", -1.0, 0.5),
+        default=Materials().nu,
+        help="Poisson's ratio, in (-1, 0.5)",
+    )
+    p.add_argument(
+        "--pressure",
+        metavar="PA",
+        type=_float("--pressure"),
+        default=DEFAULT_PRESSURE_PA,
+        help=f"pressure on the incus (Pa; default {DEFAULT_PRESSURE_PA:g})",
+    )
+    _add_mesh_options(p)
+    p.add_argument("--vtu", metavar="PATH", help="write the base case for ParaView (.vtu)")
+    p.add_argument("--json", action="store_true", help="print a JSON list")
+    p.set_defaults(func=_cmd_cases)
+
+    p = fsub.add_parser("convergence", help="pedicle cantilever against Timoshenko (spec 2.6)")
+    p.add_argument(
+        "--direction", choices=("x", "y"), required=True, help="direction of the shear load"
+    )
+    p.add_argument("--order", type=int, choices=(1, 2), default=2, help="P1 or P2 (default 2)")
+    p.add_argument(
+        "--nu",
+        type=_float("--nu", -1.0, 0.5),
+        default=Materials().nu,
+        help="Poisson's ratio, in (-1, 0.5)",
+    )
+    p.add_argument(
+        "--resolutions",
+        metavar="R",
+        type=_float("--resolutions", lo=0.0),
+        nargs="+",
+        default=None,
+        help="mesh resolution factors (default: a preset ladder)",
+    )
+    p.add_argument("--plot", metavar="PATH", help="write a plot (.png, .pdf or .svg)")
+    p.add_argument("--json", action="store_true", help="print a JSON list")
+    p.set_defaults(func=_cmd_convergence)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the command line; returns the exit code."""
+    try:
+        args = build_parser().parse_args(argv)
+        return args.func(args)
+    except (UsageError, InvalidParameter) as exc:
+        print(f"isj: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    except KeyboardInterrupt:
+        print("isj: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())
