@@ -159,9 +159,7 @@ def assemble_regions(space: Space, pattern: Pattern) -> dict[str, RegionMatrices
             # entry (e, i, k, j, l) goes to block entry (local pair of i, j; k; l)
             lp = local[pattern.pair[e]]  # (e, i, j)
             where = 9 * lp[:, :, None, :, None] + kl[None, None, :, None, :]
-            A += np.bincount(
-                where.ravel(), weights=_gradient_products(space, e).ravel(), minlength=A.size
-            )
+            A += np.bincount(where.ravel(), weights=_gradient_products(space, e).ravel(), minlength=A.size)
         A = A.reshape(-1, 3, 3)
         mu = A.transpose(0, 2, 1) + np.trace(A, axis1=1, axis2=2)[:, None, None] * np.eye(3)
         out[name] = RegionMatrices(pairs=pairs, lam=A, mu=mu)
@@ -179,9 +177,7 @@ def assemble_mass(space: Space, pattern: Pattern, regions: dict[str, RegionMatri
         local = np.full(pattern.n_pairs, -1, dtype=np.int64)
         local[rm.pairs] = np.arange(rm.pairs.size)
         vals = space.det[sel][:, None, None] * m_ref[None]
-        mass = np.bincount(
-            local[pattern.pair[sel]].ravel(), weights=vals.ravel(), minlength=rm.pairs.size
-        )
+        mass = np.bincount(local[pattern.pair[sel]].ravel(), weights=vals.ravel(), minlength=rm.pairs.size)
         object.__setattr__(rm, "mass", mass)
 
 

@@ -20,9 +20,7 @@ def face_areas(space: Space, name: str) -> np.ndarray:
     """Areas (m²) of the triangles of a named face."""
     tri = space.faces[name][:, :3]
     p = space.points
-    return 0.5 * np.linalg.norm(
-        np.cross(p[tri[:, 1]] - p[tri[:, 0]], p[tri[:, 2]] - p[tri[:, 0]]), axis=1
-    )
+    return 0.5 * np.linalg.norm(np.cross(p[tri[:, 1]] - p[tri[:, 0]], p[tri[:, 2]] - p[tri[:, 0]]), axis=1)
 
 
 def traction_load(space: Space, name: str, traction_pa) -> np.ndarray:

@@ -26,7 +26,7 @@ from .solvers import make_solver
 from .space import build_space
 
 #: Resolution ladders of the default study (P1 needs finer meshes).
-DEFAULT_RESOLUTIONS = {1: (0.5, 0.8, 1.25, 2.0, 3.0), 2: (0.35, 0.5, 0.8, 1.25, 2.0)}
+DEFAULT_RESOLUTIONS = {1: (1.0, 1.6, 2.5, 4.0, 6.0), 2: (0.7, 1.0, 1.6, 2.5, 4.0)}
 
 
 def timoshenko_tip_deflection(
@@ -36,9 +36,7 @@ def timoshenko_tip_deflection(
     inertia = width_m * depth_m**3 / 12
     area = width_m * depth_m
     shear = youngs_pa / (2 * (1 + nu))
-    return force_n * length_m**3 / (3 * youngs_pa * inertia) + force_n * length_m / (
-        5 / 6 * shear * area
-    )
+    return force_n * length_m**3 / (3 * youngs_pa * inertia) + force_n * length_m / (5 / 6 * shear * area)
 
 
 def solve_cantilever(
@@ -106,17 +104,13 @@ def cantilever_study(
     m = Materials()
     nu = m.nu if nu is None else nu
     E = m.pedicle_e_pa if youngs_pa is None else youngs_pa
-    depth, width = (
-        (g.pedicle_x_m, g.pedicle_y_m) if direction == "x" else (g.pedicle_y_m, g.pedicle_x_m)
-    )
+    depth, width = (g.pedicle_x_m, g.pedicle_y_m) if direction == "x" else (g.pedicle_y_m, g.pedicle_x_m)
     analytic = timoshenko_tip_deflection(force_n, g.pedicle_length_m, depth, width, E, nu)
     rows = []
     for r in resolutions or DEFAULT_RESOLUTIONS[order]:
         mesh = mesh_cantilever(g, resolution=r, cache_dir=cache_dir)
         row = solve_cantilever(mesh, order, direction, E, nu, force_n)
-        row.update(
-            resolution=float(r), analytic_m=analytic, rel_error=row["max_disp_m"] / analytic - 1
-        )
+        row.update(resolution=float(r), analytic_m=analytic, rel_error=row["max_disp_m"] / analytic - 1)
         rows.append(row)
     return rows
 
@@ -147,3 +141,50 @@ def plot_study(rows: list[dict], path, title: str = "", ax=None):
         atomic_write(path, lambda tmp: fig.savefig(tmp, format=str(path).rsplit(".", 1)[-1]))
         plt.close(fig)
     return ax
+
+
+def richardson(values, ratio: float) -> dict:
+    """Extrapolate the last three of a sequence on meshes refined by a constant ``ratio``.
+
+    Assumes error ∝ h^p. Returns ``{"limit", "order", "last_rel_change"}``; the
+    limit is None when the sequence is not monotone (no asymptotic regime yet).
+    """
+    f1, f2, f3 = (float(v) for v in values[-3:])
+    d1, d2 = f2 - f1, f3 - f2
+    out = {"limit": None, "order": None, "last_rel_change": abs(d2 / f3)}
+    if d1 * d2 > 0 and abs(d2) < abs(d1):
+        p = np.log(d1 / d2) / np.log(ratio)
+        out.update(order=float(p), limit=float(f3 + d2 / (ratio**p - 1)))
+    return out
+
+
+def joint_study(
+    order: int = 2, resolutions=(0.5, 0.71, 1.0, 1.41), sizes=None, cache_dir=None, progress=None
+) -> list[dict]:
+    """α and β of the base case on a ladder of meshes (the thesis's model itself)."""
+    import time
+
+    from .model import PedicleJointModel
+
+    rows = []
+    for r in resolutions:
+        t0 = time.perf_counter()
+        m = PedicleJointModel(order=order, resolution=r, sizes=sizes, cache_dir=cache_dir)
+        res = m.solve()
+        rows.append(
+            {
+                "order": order,
+                "resolution": float(r),
+                "n_tets": m.n_tets,
+                "n_dofs": m.n_dofs,
+                "alpha_rad": res.alpha_rad,
+                "beta_rad": res.beta_rad,
+                "alpha_ls_rad": res.alpha_ls_rad,
+                "beta_ls_rad": res.beta_ls_rad,
+                "time_s": time.perf_counter() - t0,
+            }
+        )
+        if progress:
+            progress(rows[-1])
+        del m
+    return rows

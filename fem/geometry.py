@@ -23,23 +23,39 @@ from isj.design import REGIONS, Geometry
 GMSH_UNIT_M = 1e-6
 
 #: Default target element sizes at resolution 1 (m), one per region of :data:`REGIONS`.
-#: The pedicle bends in x: 55/20 ≈ 2.75 elements across (≥ 6 tets crossed by a
-#: line through it). Gap 35/20 = 1.75 and capsule wall 30/25 = 1.2 across
-#: (≥ 2–3 tets crossed): 2 full element sizes across both would double the count
-#: (≈ 20k tets), the capsule's wide sleeve being the dearest region. The stiff
-#: incus and stapes head are coarse. ≈ 11k linear tets at R = 1. Tune here.
+#: Coarse on purpose: away from the singular edges (below) P2 elements of this
+#: size already resolve the bending of the pedicle and plate; making every
+#: region 0.7× finer changed α and β by < 0.1 % (benchmarks/mesh_study.py), so
+#: the dofs go to the edges instead.
 DEFAULT_SIZES_M: dict[str, float] = {
-    "stapes": 90e-6,
-    "gap": 20e-6,
-    "plate": 50e-6,
-    "pedicle": 20e-6,
-    "incus": 90e-6,
-    "capsule": 25e-6,
+    "stapes": 270e-6,
+    "gap": 60e-6,
+    "plate": 150e-6,
+    "pedicle": 60e-6,
+    "incus": 270e-6,
+    "capsule": 75e-6,
 }
 
 #: Default largest size gradient |dh/dx| (dimensionless) in the transition from a
 #: fine region into a coarser neighbour: neighbouring elements differ by ≈ 1 + grading.
 DEFAULT_GRADING = 0.6
+
+#: Default element sizes at the singular edges at resolution 1 (m). Stresses are
+#: singular along the pedicle's re-entrant end edges (bone on bone), along the
+#: lines where the capsule's bonded strips start and end (a soft layer bonded to
+#: bone next to a free interface: crack-like) and along the gap's rim (soft
+#: layer between bones with a free side). Their compliance converges slowly on
+#: uniform meshes (α and β were still moving by ~2 % per refinement), so the
+#: mesh is graded towards those edges. Tuned with benchmarks/mesh_study.py.
+#: The gap's rim is off by default (size = the gap's): it moved α by < 1 %.
+DEFAULT_EDGE_SIZES_M: dict[str, float] = {
+    "pedicle_edge": 3e-6,
+    "capsule_edge": 8e-6,
+    "gap_edge": 60e-6,
+}
+
+#: Default size gradient away from the singular edges (dimensionless).
+DEFAULT_EDGE_GRADING = 0.6
 
 
 @dataclass(frozen=True)
@@ -51,6 +67,12 @@ class MeshSizes:
     stapes_m, gap_m, plate_m, pedicle_m, incus_m, capsule_m : float
         Target edge length of the linear tetrahedra inside each region at
         resolution 1 (m).
+    pedicle_edge_m, capsule_edge_m, gap_edge_m : float
+        Target size at resolution 1 (m) at the singular edges: the pedicle's
+        end edges, the capsule's bond lines, the gap's rim. A size at least
+        the region's size switches that refinement off.
+    edge_grading : float
+        Size gradient |dh/dx| (dimensionless, > 0) away from those edges.
     grading : float
         Largest size gradient |dh/dx| (dimensionless, > 0) where a fine region's
         size spreads into a coarser neighbour; ≈ ratio − 1 between the sizes of
@@ -70,6 +92,10 @@ class MeshSizes:
     incus_m: float = DEFAULT_SIZES_M["incus"]
     capsule_m: float = DEFAULT_SIZES_M["capsule"]
     grading: float = DEFAULT_GRADING
+    pedicle_edge_m: float = DEFAULT_EDGE_SIZES_M["pedicle_edge"]
+    capsule_edge_m: float = DEFAULT_EDGE_SIZES_M["capsule_edge"]
+    gap_edge_m: float = DEFAULT_EDGE_SIZES_M["gap_edge"]
+    edge_grading: float = DEFAULT_EDGE_GRADING
     resolution: float = 1.0
 
     def __post_init__(self) -> None:
@@ -145,12 +171,21 @@ def _surfaces_where(model, surfaces, predicate, tol: float) -> list[int]:
     return sorted(s for s in surfaces if predicate(*model.getBoundingBox(2, s), tol))
 
 
-def _size_field(model, boxes: list[tuple[float, tuple[float, ...]]], sizes: MeshSizes) -> None:
+def _size_field(
+    model,
+    boxes: list[tuple[float, tuple[float, ...]]],
+    sizes: MeshSizes,
+    edges: list[tuple[list[int], float, float]] = (),
+) -> None:
     """Per-region Box fields (VIn = region size) combined with Min.
 
     Each Box ramps linearly from its region's size to the coarsest size over a
     transition layer of thickness (h_coarse − h_region) / grading, computed at
     resolution 1 so the whole field scales as 1/R.
+
+    ``edges``: (curve tags, size at the curves, size far away), all µm at
+    resolution 1: a Distance + Threshold field grows the size linearly from the
+    curves with slope ``sizes.edge_grading``.
     """
     mesh_field = model.mesh.field
     r = sizes.resolution
@@ -167,6 +202,21 @@ def _size_field(model, boxes: list[tuple[float, tuple[float, ...]]], sizes: Mesh
         # Thickness 0 would make a step; any positive value gives a linear ramp.
         mesh_field.setNumber(f, "Thickness", max((h_max - h) / sizes.grading, 1e-3))
         tags.append(f)
+    for curves, h_edge, h_far in edges:
+        if not curves or h_edge >= h_far:
+            continue
+        d = mesh_field.add("Distance")
+        mesh_field.setNumbers(d, "CurvesList", curves)
+        # points per curve at which the distance is sampled: ≥ 2 per edge element
+        longest = max(_curve_length(model, c) for c in curves)
+        mesh_field.setNumber(d, "Sampling", int(min(2000, max(20, 2 * longest / h_edge))))
+        th = mesh_field.add("Threshold")
+        mesh_field.setNumber(th, "InField", d)
+        mesh_field.setNumber(th, "SizeMin", h_edge / r)
+        mesh_field.setNumber(th, "SizeMax", h_far / r)
+        mesh_field.setNumber(th, "DistMin", 0.0)
+        mesh_field.setNumber(th, "DistMax", (h_far - h_edge) / sizes.edge_grading)
+        tags.append(th)
     fmin = mesh_field.add("Min")
     mesh_field.setNumbers(fmin, "FieldsList", tags)
     mesh_field.setAsBackgroundMesh(fmin)
@@ -178,6 +228,51 @@ def _size_field(model, boxes: list[tuple[float, tuple[float, ...]]], sizes: Mesh
     gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
     gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
     gmsh.option.setNumber("Mesh.MeshSizeMax", h_max / r)
+
+
+def _curve_length(model, c: int) -> float:
+    b = model.getBoundingBox(1, c)
+    return max(b[3] - b[0], b[4] - b[1], b[5] - b[2])
+
+
+def _flat_curves(model, z: float, inside, tol: float) -> list[int]:
+    """Curves lying in the plane z (µm) whose bounding box satisfies ``inside``."""
+    out = []
+    for _, c in model.getEntities(1):
+        b = model.getBoundingBox(1, c)
+        if abs(b[2] - z) < tol and abs(b[5] - z) < tol and inside(b):
+            out.append(c)
+    return sorted(out)
+
+
+def _singular_edges(model, g: Geometry, sizes: MeshSizes, tol: float):
+    """Edges where stresses are singular, with their sizes (µm at R = 1)."""
+    px, py = _um(g.pedicle_x_m), _um(g.pedicle_y_m)
+    jx, jy = _um(g.joint_x_m), _um(g.joint_y_m)
+    lv = joint_levels_um(g)
+
+    def in_pedicle(b):
+        return (
+            b[0] >= -px / 2 - tol
+            and b[3] <= px / 2 + tol
+            and b[1] >= -py / 2 - tol
+            and (b[4] <= py / 2 + tol)
+        )
+
+    def on_joint_rim(b):  # a straight line along a side face of the joint (inner capsule face)
+        return (abs(b[0] - b[3]) < tol and abs(abs(b[0]) - jx / 2) < tol) or (
+            abs(b[1] - b[4]) < tol and abs(abs(b[1]) - jy / 2) < tol
+        )
+
+    pedicle = [c for z in (_um(g.z_pedicle), _um(g.z_incus)) for c in _flat_curves(model, z, in_pedicle, tol)]
+    bond_lines = (lv["free_start"], lv["free_end"])  # where the free interface begins
+    capsule = [c for z in bond_lines for c in _flat_curves(model, z, on_joint_rim, tol)]
+    gap = [c for z in (_um(g.z_gap), _um(g.z_plate)) for c in _flat_curves(model, z, on_joint_rim, tol)]
+    return [
+        (pedicle, _um(sizes.pedicle_edge_m), _um(sizes.base_size("pedicle"))),
+        (capsule, _um(sizes.capsule_edge_m), _um(sizes.base_size("capsule"))),
+        (gap, _um(sizes.gap_edge_m), _um(sizes.base_size("gap"))),
+    ]
 
 
 # --------------------------------------------------------------------------- builders
@@ -257,9 +352,7 @@ def build_pedicle_joint(geometry: Geometry, sizes: MeshSizes) -> dict[str, list[
         raise RuntimeError(f"fragment lost a region: got {sorted(regions)}")
 
     tol = 1e-3 * min(t, px, _um(g.gap_thickness_m))
-    bone_side = set().union(
-        *(_boundary_surfaces(model, regions[n]) for n in ("stapes", "gap", "plate"))
-    )
+    bone_side = set().union(*(_boundary_surfaces(model, regions[n]) for n in ("stapes", "gap", "plate")))
     capsule_inner = _boundary_surfaces(model, regions["capsule"]) & bone_side
     free = _surfaces_where(
         model, capsule_inner, lambda *b: b[2] >= z_cap[1] - b[6] and b[5] <= z_cap[2] + b[6], tol
@@ -302,7 +395,7 @@ def build_pedicle_joint(geometry: Geometry, sizes: MeshSizes) -> dict[str, list[
         (-ax, ay, ax, by),
     ):
         field_boxes.append((h_cap, (x0, y0, z_cap[0], x1, y1, z_cap[-1])))
-    _size_field(model, field_boxes, sizes)
+    _size_field(model, field_boxes, sizes, _singular_edges(model, g, sizes, tol))
     return {**regions, **surfaces, "capsule_bonded": bonded}
 
 

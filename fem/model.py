@@ -108,9 +108,7 @@ class PedicleJointModel:
         if mesh is None:
             from .mesh import mesh_pedicle_joint
 
-            mesh = mesh_pedicle_joint(
-                self.geometry, resolution=resolution, sizes=sizes, cache_dir=cache_dir
-            )
+            mesh = mesh_pedicle_joint(self.geometry, resolution=resolution, sizes=sizes, cache_dir=cache_dir)
         self.mesh = mesh
         t1 = time.perf_counter()
         self.space = build_space(mesh, order)

@@ -137,9 +137,7 @@ def make_solver(A: sp.csr_matrix, backend: str = "auto"):
     if backend == "auto":
         backend = have[0]
     if backend not in BACKENDS:
-        raise ValueError(
-            f"solver backend = {backend!r}: must be one of auto, {', '.join(BACKENDS)}"
-        )
+        raise ValueError(f"solver backend = {backend!r}: must be one of auto, {', '.join(BACKENDS)}")
     if backend not in have:
         raise SolverUnavailable(f"solver backend {backend!r} is not installed here")
     A = sp.csr_matrix(A)

@@ -11,9 +11,7 @@ import numpy as np
 
 # Kuhn split: the six monotone paths from corner 0 to corner 7 of a unit cube,
 # corners numbered by bits (x, y, z) = (1, 2, 4).
-_KUHN = np.array(
-    [[0, 1, 3, 7], [0, 1, 5, 7], [0, 2, 3, 7], [0, 2, 6, 7], [0, 4, 5, 7], [0, 4, 6, 7]]
-)
+_KUHN = np.array([[0, 1, 3, 7], [0, 1, 5, 7], [0, 2, 3, 7], [0, 2, 6, 7], [0, 4, 5, 7], [0, 4, 6, 7]])
 
 
 def box_mesh(lengths_m, divisions, origin_m=(0.0, 0.0, 0.0), region_name: str = "box"):
@@ -36,7 +34,7 @@ def box_mesh(lengths_m, divisions, origin_m=(0.0, 0.0, 0.0), region_name: str = 
     nx, ny, nz = (int(n) for n in divisions)
     if min(nx, ny, nz) < 1:
         raise ValueError(f"divisions = {divisions!r}: each must be >= 1")
-    axes = [np.linspace(o, o + L, n + 1) for o, L, n in zip(origin_m, lengths_m, (nx, ny, nz))]
+    axes = [np.linspace(o, o + L, n + 1) for o, L, n in zip(origin_m, lengths_m, (nx, ny, nz), strict=True)]
     X, Y, Z = np.meshgrid(*axes, indexing="ij")
     points = np.stack([X.ravel(), Y.ravel(), Z.ravel()], axis=1)
 
@@ -45,9 +43,7 @@ def box_mesh(lengths_m, divisions, origin_m=(0.0, 0.0, 0.0), region_name: str = 
 
     i, j, k = np.meshgrid(np.arange(nx), np.arange(ny), np.arange(nz), indexing="ij")
     i, j, k = i.ravel(), j.ravel(), k.ravel()
-    corners = np.stack(
-        [nid(i + (c & 1), j + ((c >> 1) & 1), k + ((c >> 2) & 1)) for c in range(8)], axis=1
-    )
+    corners = np.stack([nid(i + (c & 1), j + ((c >> 1) & 1), k + ((c >> 2) & 1)) for c in range(8)], axis=1)
     tets = corners[:, _KUHN].reshape(-1, 4)
     # orient every tetrahedron positively
     p = points[tets]
@@ -62,9 +58,7 @@ def box_mesh(lengths_m, divisions, origin_m=(0.0, 0.0, 0.0), region_name: str = 
             idx[axis] = np.array([val])
             a, b, c = np.meshgrid(*idx, indexing="ij")
             grid = nid(a, b, c).squeeze(axis=axis)
-            q = np.stack(
-                [grid[:-1, :-1], grid[1:, :-1], grid[1:, 1:], grid[:-1, 1:]], axis=-1
-            ).reshape(-1, 4)
+            q = np.stack([grid[:-1, :-1], grid[1:, :-1], grid[1:, 1:], grid[:-1, 1:]], axis=-1).reshape(-1, 4)
             faces[f"{name}{side}"] = np.vstack([q[:, [0, 1, 2]], q[:, [0, 2, 3]]])
     # the quad split above must match the tets' diagonals: Kuhn splits every
     # face along its diagonal through the cube's corner 0, i.e. (0, 2) here

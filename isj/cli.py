@@ -37,11 +37,7 @@ def _float(name: str, lo: float = -math.inf, hi: float = math.inf, lo_open=True,
             v = float(text)
         except ValueError:
             raise argparse.ArgumentTypeError(f"{name} = {text!r}: not a number") from None
-        ok = (
-            math.isfinite(v)
-            and (v > lo if lo_open else v >= lo)
-            and (v < hi if hi_open else v <= hi)
-        )
+        ok = math.isfinite(v) and (v > lo if lo_open else v >= lo) and (v < hi if hi_open else v <= hi)
         if not ok:
             rng = f"{'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}"
             raise argparse.ArgumentTypeError(f"{name} = {text}: must be a finite number in {rng}")
@@ -79,9 +75,7 @@ def _add_design_options(p: argparse.ArgumentParser) -> None:
 
 
 def _add_mesh_options(p: argparse.ArgumentParser) -> None:
-    p.add_argument(
-        "--order", type=int, choices=(1, 2), default=2, help="P1 or P2 tetrahedra (default 2)"
-    )
+    p.add_argument("--order", type=int, choices=(1, 2), default=2, help="P1 or P2 tetrahedra (default 2)")
     p.add_argument(
         "--resolution",
         metavar="R",
@@ -143,12 +137,8 @@ def _cmd_solve(args) -> int:
     if args.json:
         print(json.dumps(out))
     else:
-        print(
-            f"P{args.order} mesh: {model.n_tets} tets, {model.n_dofs} dofs, solver {model.solver_name}"
-        )
-        print(
-            f"alpha      = {_urad(res.alpha_rad)} urad   (least squares {_urad(res.alpha_ls_rad)})"
-        )
+        print(f"P{args.order} mesh: {model.n_tets} tets, {model.n_dofs} dofs, solver {model.solver_name}")
+        print(f"alpha      = {_urad(res.alpha_rad)} urad   (least squares {_urad(res.alpha_ls_rad)})")
         print(f"beta       = {_urad(res.beta_rad)} urad   (least squares {_urad(res.beta_ls_rad)})")
         print(f"alpha+beta = {_urad(res.sum_rad)} urad   beta/alpha = {res.ratio:.3f}")
         print(f"max |u|    = {res.max_disp_m:.4e} m at {args.pressure:g} Pa")
@@ -206,7 +196,8 @@ def _cmd_cases(args) -> int:
     for r in rows:
         print(
             f"{r['case']:7} {r['pedicle_e_pa'] / 1e9:9.3g} {r['gap_e_pa'] / 1e6:9.3g} "
-            f"{r['capsule_e_pa'] / 1e6:9.3g} {r['alpha_rad'] * 1e6:10.4f} {r['beta_rad'] * 1e6:10.4f} "
+            f"{r['capsule_e_pa'] / 1e6:9.3g} {r['alpha_rad'] * 1e6:10.4f} "
+            f"{r['beta_rad'] * 1e6:10.4f} "
             f"{r['alpha_plus_beta_rad'] * 1e6:9.4f} {r['beta_over_alpha']:10.3f} "
             f"{100 * r['strain_energy_fraction']['pedicle']:10.1f}%"
         )
@@ -246,6 +237,37 @@ def _cmd_convergence(args) -> int:
     return 0
 
 
+def _cmd_mesh(args) -> int:
+    from fem.model import PedicleJointModel
+    from fem.quality import mesh_quality, rcm_bandwidth
+
+    model = PedicleJointModel(order=args.order, resolution=args.resolution)
+    q = mesh_quality(model.mesh)
+    K = model.stiffness(Materials(), reduced=False)
+    before, after = rcm_bandwidth(K)
+    out = q | {
+        "order": args.order,
+        "n_dofs": model.n_dofs,
+        "mesh_hash": model.mesh.content_hash(),
+        "stiffness_bandwidth": before,
+        "stiffness_bandwidth_rcm": after,
+    }
+    if args.json:
+        print(json.dumps(out))
+        return 0
+    print(
+        f"mesh {out['mesh_hash'][:12]}: {q['n_tets']} tets, {q['n_nodes']} vertices; "
+        f"P{args.order}: {model.n_dofs} free dofs"
+    )
+    print("tets per region: " + ", ".join(f"{k} {v}" for k, v in q["tets_per_region"].items()))
+    print(
+        f"minimum dihedral angle {q['min_dihedral_deg']:.1f} deg, "
+        f"worst aspect ratio {q['max_aspect_ratio']:.2f} (1 = regular)"
+    )
+    print(f"stiffness bandwidth {before} -> {after} after reverse Cuthill-McKee")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="isj", description="Mechanics of the incus-stapes coupling.")
     parser.add_argument("--version", action="version", version=f"isj {__version__}")
@@ -279,10 +301,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="print a JSON list")
     p.set_defaults(func=_cmd_cases)
 
+    p = fsub.add_parser("mesh", help="mesh quality and stiffness bandwidth (thesis 6.5)")
+    _add_mesh_options(p)
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=_cmd_mesh)
+
     p = fsub.add_parser("convergence", help="pedicle cantilever against Timoshenko (spec 2.6)")
-    p.add_argument(
-        "--direction", choices=("x", "y"), required=True, help="direction of the shear load"
-    )
+    p.add_argument("--direction", choices=("x", "y"), required=True, help="direction of the shear load")
     p.add_argument("--order", type=int, choices=(1, 2), default=2, help="P1 or P2 (default 2)")
     p.add_argument(
         "--nu",

@@ -20,9 +20,7 @@ def two_region_box():
 
 def stiffness(space, pattern, regions, youngs, nu=0.3):
     lam, mu = lame_unit(nu)
-    return pattern.matrix(
-        combine(pattern, regions, {r: (e * lam, e * mu) for r, e in youngs.items()})
-    )
+    return pattern.matrix(combine(pattern, regions, {r: (e * lam, e * mu) for r, e in youngs.items()}))
 
 
 @pytest.mark.parametrize("order", [1, 2])
@@ -86,9 +84,7 @@ def test_mass_integrates_density_exactly(order):
     pattern = build_pattern(space)
     regions = assemble_regions(space, pattern)
     assemble_mass(space, pattern, regions)
-    M = pattern.matrix(
-        combine(pattern, regions, {"lower": (2000.0, 0), "upper": (1100.0, 0)}, "mass")
-    )
+    M = pattern.matrix(combine(pattern, regions, {"lower": (2000.0, 0), "upper": (1100.0, 0)}, "mass"))
     vol = 1e-4 * 2e-4 * 1.5e-4
     # a rigid translation's kinetic-energy form gives the total mass
     t = np.tile([1.0, 0.0, 0.0], space.n_nodes)
@@ -97,10 +93,7 @@ def test_mass_integrates_density_exactly(order):
     x = np.zeros((space.n_nodes, 3))
     x[:, 0] = space.points[:, 2]
     z = x.ravel()
-    exact = (
-        2000 * 1e-4 * 2e-4 * (1.5e-4) ** 3 / 3
-        + 1100 * 1e-4 * 2e-4 * ((3e-4) ** 3 - (1.5e-4) ** 3) / 3
-    )
+    exact = 2000 * 1e-4 * 2e-4 * (1.5e-4) ** 3 / 3 + 1100 * 1e-4 * 2e-4 * ((3e-4) ** 3 - (1.5e-4) ** 3) / 3
     if order == 2:
         assert z @ M @ z == pytest.approx(exact, rel=1e-12)
     assert sp.issparse(M)

@@ -67,9 +67,7 @@ def test_gradients_match_finite_differences(order):
     for a in range(3):
         dx = np.zeros(3)
         dx[a] = h
-        fd = shape_functions(order, barycentric(x + dx)) - shape_functions(
-            order, barycentric(x - dx)
-        )
+        fd = shape_functions(order, barycentric(x + dx)) - shape_functions(order, barycentric(x - dx))
         assert np.allclose(g[:, :, a], fd / (2 * h), atol=1e-8)
 
 
