@@ -112,6 +112,7 @@ class RegionMatrices:
     lam: np.ndarray
     mu: np.ndarray
     mass: np.ndarray | None = None
+    positions: np.ndarray | None = None  # CSR data positions of the blocks, cached
 
 
 # Hammer's 4-point rule, degree 2: exact for products of P2 gradients on
@@ -202,6 +203,9 @@ def combine(
             if rm.mass is None:
                 raise ValueError("mass not assembled: call fem.assembly.assemble_mass first")
             blocks = a * rm.mass[:, None, None] * eye
-        # pairs on a region boundary belong to two regions: accumulate
-        data[pattern.block_pos[rm.pairs]] += blocks
+        # positions of the region's entries, gathered once: within a region they are
+        # distinct, and pairs on a region boundary accumulate across regions
+        if rm.positions is None:
+            object.__setattr__(rm, "positions", pattern.block_pos[rm.pairs].ravel())
+        data[rm.positions] += blocks.ravel()
     return data

@@ -23,8 +23,9 @@ def region_strain_energy(
     for name, rm in regions.items():
         ui = un[pattern.pair_row[rm.pairs]]
         uj = un[pattern.pair_col[rm.pairs]]
-        blocks = lam * rm.lam + mu * rm.mu
-        out[name] = 0.5 * youngs_pa[name] * float(np.einsum("pk,pkl,pl->", ui, blocks, uj))
+        e_lam = np.einsum("pk,pkl,pl->", ui, rm.lam, uj, optimize=True)
+        e_mu = np.einsum("pk,pkl,pl->", ui, rm.mu, uj, optimize=True)
+        out[name] = 0.5 * youngs_pa[name] * float(lam * e_lam + mu * e_mu)
     return out
 
 

@@ -212,11 +212,28 @@ def _cmd_cases(args) -> int:
 
 
 def _cmd_convergence(args) -> int:
-    from fem.convergence import cantilever_study, plot_study
+    from fem.convergence import cantilever_study, joint_study, plot_study
 
-    plot = _check_out_path(args.plot, "--plot", Path(args.plot).suffix.lower() if args.plot else "")
-    if plot is not None and plot.suffix.lower() not in (".png", ".pdf", ".svg"):
-        raise UsageError(f"--plot = {args.plot!r}: must end in .png, .pdf or .svg")
+    plot = Path(args.plot) if args.plot else None
+    if plot is not None and (plot.suffix.lower() not in (".png", ".pdf", ".svg") or plot.is_dir()):
+        raise UsageError(f"--plot = {args.plot!r}: must be a file ending in .png, .pdf or .svg")
+    if args.model == "joint":
+        if plot is not None:
+            raise UsageError("--plot: only for --model cantilever")
+        rows = joint_study(args.order, args.resolutions or (0.71, 1.0, 1.41))
+        if args.json:
+            print(json.dumps(rows))
+            return 0
+        print(f"Base case (spec 2.5) at the default pressure, P{args.order}:")
+        print(f"{'R':>5} {'n_tets':>8} {'n_dofs':>8} {'alpha urad':>10} {'beta urad':>10} {'time s':>7}")
+        for r in rows:
+            print(
+                f"{r['resolution']:5.2f} {r['n_tets']:8d} {r['n_dofs']:8d} {r['alpha_rad'] * 1e6:10.4f} "
+                f"{r['beta_rad'] * 1e6:10.4f} {r['time_s']:7.1f}"
+            )
+        return 0
+    if args.direction is None:
+        raise UsageError("--direction: required for --model cantilever (x or y)")
     rows = cantilever_study(
         direction=args.direction, order=args.order, nu=args.nu, resolutions=args.resolutions
     )
@@ -229,9 +246,12 @@ def _cmd_convergence(args) -> int:
         f"Pedicle cantilever (spec 2.6), shear load in {args.direction}, P{args.order}: "
         f"max |u| against Timoshenko {rows[0]['analytic_m']:.4e} m"
     )
-    print(f"{'n_tets':>8} {'n_dofs':>8} {'max_disp_m':>12} {'rel_error':>10}")
+    print(f"{'n_tets':>8} {'n_dofs':>8} {'max_disp_m':>12} {'rel_error':>10} {'tip_mean_m':>12}")
     for r in rows:
-        print(f"{r['n_tets']:8d} {r['n_dofs']:8d} {r['max_disp_m']:12.4e} {r['rel_error']:+10.4f}")
+        print(
+            f"{r['n_tets']:8d} {r['n_dofs']:8d} {r['max_disp_m']:12.4e} {r['rel_error']:+10.4f} "
+            f"{r['tip_mean_m']:12.4e}"
+        )
     if plot is not None:
         print(f"wrote {plot}")
     return 0
@@ -307,7 +327,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_cmd_mesh)
 
     p = fsub.add_parser("convergence", help="pedicle cantilever against Timoshenko (spec 2.6)")
-    p.add_argument("--direction", choices=("x", "y"), required=True, help="direction of the shear load")
+    p.add_argument("--direction", choices=("x", "y"), help="direction of the shear load (cantilever)")
+    p.add_argument(
+        "--model",
+        choices=("cantilever", "joint"),
+        default="cantilever",
+        help="the pedicle cantilever (default) or the base case of the joint model",
+    )
     p.add_argument("--order", type=int, choices=(1, 2), default=2, help="P1 or P2 (default 2)")
     p.add_argument(
         "--nu",
