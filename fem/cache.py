@@ -60,9 +60,19 @@ def _gmsh_version() -> str:
     return str(gmsh.__version__)
 
 
+def _builder_digest() -> str:
+    """sha256 of the meshing code: editing the builder invalidates old entries."""
+    here = Path(__file__).resolve().parent
+    h = hashlib.sha256()
+    for name in ("geometry.py", "mesh.py"):
+        h.update((here / name).read_bytes())
+    return h.hexdigest()
+
+
 def cache_key(kind: str, geometry: Geometry, sizes: MeshSizes) -> str:
     """sha256 (hex) of the canonical JSON of everything the mesh depends on."""
     payload = {
+        "builder": _builder_digest(),
         "kind": kind,
         "geometry": dataclasses.asdict(geometry),
         "sizes": dataclasses.asdict(sizes),
