@@ -129,9 +129,25 @@ def _elements(gmsh, dim: int, entities: list[int], etype: int) -> np.ndarray:
     return np.concatenate(blocks) if blocks else np.empty((0, nn), np.int64)
 
 
+#: Debian packages that gmsh's PyPI wheel needs on a headless machine.
+GMSH_SYSTEM_PACKAGES = "libglu1-mesa libgl1 libxrender1 libxcursor1 libxft2 libxinerama1 libgomp1"
+
+
+def import_gmsh():
+    """Import gmsh, or raise MeshError saying which system libraries are missing."""
+    try:
+        import gmsh
+    except (ImportError, OSError) as exc:
+        raise MeshError(
+            f"gmsh cannot be loaded ({str(exc).splitlines()[0]}); on Debian run: "
+            f"apt-get install --no-install-recommends {GMSH_SYSTEM_PACKAGES}"
+        ) from None
+    return gmsh
+
+
 def _gmsh_mesh(kind, builder, geometry, sizes, region_names, face_names):
     """Build and mesh with gmsh; return (node tags, coordinates µm, tets per region, faces)."""
-    import gmsh
+    gmsh = import_gmsh()
 
     if gmsh.isInitialized():
         # Our options are global: running inside someone else's session would change theirs.

@@ -8,6 +8,7 @@ output file.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import math
 import sys
@@ -15,7 +16,7 @@ import time
 from pathlib import Path
 
 from . import __version__
-from .design import DEFAULT_PRESSURE_PA, InvalidParameter, Materials
+from .design import DEFAULT_PRESSURE_PA, Geometry, InvalidParameter, Materials
 
 EXIT_USAGE = 2
 
@@ -75,6 +76,7 @@ def _add_design_options(p: argparse.ArgumentParser) -> None:
 
 
 def _add_mesh_options(p: argparse.ArgumentParser) -> None:
+    _add_geometry_option(p)
     p.add_argument("--order", type=int, choices=(1, 2), default=2, help="P1 or P2 tetrahedra (default 2)")
     p.add_argument(
         "--resolution",
@@ -89,6 +91,34 @@ def _add_mesh_options(p: argparse.ArgumentParser) -> None:
         default="auto",
         help="sparse direct solver (default: fastest installed)",
     )
+
+
+def _geometry_option(text: str) -> tuple[str, float]:
+    names = [f.name for f in dataclasses.fields(Geometry)]
+    key, sep, value = text.partition("=")
+    if not sep or key not in names:
+        raise argparse.ArgumentTypeError(
+            f"--geometry {text!r}: must be NAME=METRES with NAME one of {', '.join(names)}"
+        )
+    try:
+        return key, float(value)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--geometry {key} = {value!r}: not a number") from None
+
+
+def _add_geometry_option(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--geometry",
+        metavar="NAME=M",
+        type=_geometry_option,
+        action="append",
+        default=[],
+        help="override a dimension (m), e.g. pedicle_x_m=60e-6; repeatable",
+    )
+
+
+def _geometry(args) -> Geometry:
+    return Geometry(**dict(args.geometry))
 
 
 def _materials(args) -> Materials:
@@ -119,7 +149,7 @@ def _cmd_solve(args) -> int:
     vtu = _check_out_path(args.vtu, "--vtu", ".vtu")
     materials = _materials(args)
     t0 = time.perf_counter()
-    model = PedicleJointModel(order=args.order, resolution=args.resolution, solver=args.solver)
+    model = PedicleJointModel(_geometry(args), args.order, args.resolution, solver=args.solver)
     res = model.solve(materials, args.pressure)
     timings = dict(model.timings_s, total=time.perf_counter() - t0)
     out = res.to_dict() | {
@@ -159,8 +189,9 @@ def _cmd_cases(args) -> int:
 
     vtu = _check_out_path(args.vtu, "--vtu", ".vtu")
     base = Materials(nu=args.nu)
+    geometry = _geometry(args)
     t0 = time.perf_counter()
-    model = PedicleJointModel(order=args.order, resolution=args.resolution, solver=args.solver)
+    model = PedicleJointModel(geometry, args.order, args.resolution, solver=args.solver)
     rows, results = [], {}
     for case in THESIS_CASES:
         res = model.solve(case.materials(base), args.pressure)
@@ -261,7 +292,7 @@ def _cmd_mesh(args) -> int:
     from fem.model import PedicleJointModel
     from fem.quality import mesh_quality, rcm_bandwidth
 
-    model = PedicleJointModel(order=args.order, resolution=args.resolution)
+    model = PedicleJointModel(_geometry(args), args.order, args.resolution, solver=args.solver)
     q = mesh_quality(model.mesh)
     K = model.stiffness(Materials(), reduced=False)
     before, after = rcm_bandwidth(K)
@@ -363,6 +394,9 @@ def main(argv: list[str] | None = None) -> int:
     except (UsageError, InvalidParameter) as exc:
         print(f"isj: error: {exc}", file=sys.stderr)
         return EXIT_USAGE
+    except RuntimeError as exc:  # MeshError, SolverUnavailable: the input was fine, the run failed
+        print(f"isj: error: {str(exc).splitlines()[0]}", file=sys.stderr)
+        return 1
     except KeyboardInterrupt:
         print("isj: interrupted", file=sys.stderr)
         return 130

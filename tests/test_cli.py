@@ -57,6 +57,10 @@ def test_solve_writes_vtu_and_run_record(capsys, tmp_path):
         (["--order", "3"], "--order"),
         (["--resolution", "-1"], "--resolution"),
         (["--incus-e", "abc"], "--incus-e"),
+        (["--geometry", "pedicle_x_m=400e-6"], "pedicle_x_m"),
+        (["--geometry", "capsule_bond_m=-1e-6"], "capsule_bond_m"),
+        (["--geometry", "capsule_reach_m=200e-6"], "capsule_reach_m"),
+        (["--geometry", "shoe_size_m=0.3"], "--geometry"),
     ],
 )
 def test_bad_input_one_line_exit_2_nothing_written(capsys, tmp_path, argv, word):
@@ -101,3 +105,11 @@ def test_mesh_report(capsys):
     assert sum(d["tets_per_region"].values()) == d["n_tets"]
     assert 0 < d["min_dihedral_deg"] < 70.53 and d["max_aspect_ratio"] >= 1
     assert d["stiffness_bandwidth_rcm"] < d["stiffness_bandwidth"]
+
+
+def test_geometry_option_changes_the_model(capsys):
+    _, out1, _ = run(capsys, ["fem", "solve", "--json", "--order", "1", *COARSE])
+    _, out2, _ = run(
+        capsys, ["fem", "solve", "--json", "--order", "1", *COARSE, "--geometry", "pedicle_x_m=80e-6"]
+    )
+    assert json.loads(out2)["beta_rad"] < json.loads(out1)["beta_rad"]  # a thicker pedicle bends less
