@@ -37,8 +37,11 @@ def series(field: str, key: str) -> dict:
         m = PedicleJointModel(order=2, sizes=MeshSizes(**{field: h}))
         r = m.solve(pressure_pa=PROBE_PA)
         rows.append({field: h, "n_dofs": m.n_dofs, "alpha_rad": r.alpha_rad, "beta_rad": r.beta_rad})
-        print(f"  {field} = {h * 1e6:.0f} um: {m.n_dofs} dofs, alpha {r.alpha_rad * 1e6:.5f}, "
-              f"beta {r.beta_rad * 1e6:.5f} urad/Pa", flush=True)
+        print(
+            f"  {field} = {h * 1e6:.0f} um: {m.n_dofs} dofs, alpha {r.alpha_rad * 1e6:.5f}, "
+            f"beta {r.beta_rad * 1e6:.5f} urad/Pa",
+            flush=True,
+        )
     return {"rows": rows, "richardson": richardson([r[key] for r in rows], 2.0)}
 
 
@@ -55,8 +58,10 @@ def main():
     print(f"beta converged {b * 1e6:.5f} urad/Pa (order {beta['richardson']['order']})")
     print(f"alpha {'extrapolated' if a_ext else 'finest (no asymptotic regime)'} {a * 1e6:.5f} urad/Pa")
     print(f"pressure for alpha + beta = {THESIS_BASE_SUM_RAD * 1e6:.3f} urad: {p:.3f} Pa")
-    atomic_write_json(OUT, {"beta_series": beta, "alpha_series": alpha, "pressure_pa": p,
-                            "alpha_per_pa": a, "beta_per_pa": b})
+    atomic_write_json(
+        OUT,
+        {"beta_series": beta, "alpha_series": alpha, "pressure_pa": p, "alpha_per_pa": a, "beta_per_pa": b},
+    )
 
 
 if __name__ == "__main__":

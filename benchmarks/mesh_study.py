@@ -39,8 +39,9 @@ def thesis_like(target_tets: int = THESIS_N_TETS):
     best = None
     for _ in range(14):  # bisection on the element size for the tet count
         h = math.sqrt(lo * hi)
-        sizes = MeshSizes(**{f"{r}_m": h for r in DEFAULT_SIZES_M}, pedicle_edge_m=1.0,
-                          capsule_edge_m=1.0, gap_edge_m=1.0)
+        sizes = MeshSizes(
+            **{f"{r}_m": h for r in DEFAULT_SIZES_M}, pedicle_edge_m=1.0, capsule_edge_m=1.0, gap_edge_m=1.0
+        )
         m = PedicleJointModel(order=1, sizes=sizes, cache_dir=False)
         if best is None or abs(m.n_tets - target_tets) < abs(best[1].n_tets - target_tets):
             best = (h, m)
@@ -50,10 +51,15 @@ def thesis_like(target_tets: int = THESIS_N_TETS):
     h, m = best
     res = m.solve()
     p = res.pressure_pa
-    return {"element_size_m": h, "n_tets": m.n_tets, "n_dofs": m.n_dofs,
-            "alpha_rad": res.alpha_rad, "beta_rad": res.beta_rad,
-            "alpha_error": res.alpha_rad / (CONVERGED_ALPHA_RAD_PER_PA * p) - 1,
-            "beta_error": res.beta_rad / (CONVERGED_BETA_RAD_PER_PA * p) - 1}
+    return {
+        "element_size_m": h,
+        "n_tets": m.n_tets,
+        "n_dofs": m.n_dofs,
+        "alpha_rad": res.alpha_rad,
+        "beta_rad": res.beta_rad,
+        "alpha_error": res.alpha_rad / (CONVERGED_ALPHA_RAD_PER_PA * p) - 1,
+        "beta_error": res.beta_rad / (CONVERGED_BETA_RAD_PER_PA * p) - 1,
+    }
 
 
 def main(argv=None):
@@ -90,13 +96,19 @@ def main(argv=None):
             r["alpha_error"] = r["alpha_rad"] / (CONVERGED_ALPHA_RAD_PER_PA * p) - 1
             r["beta_error"] = r["beta_rad"] / (CONVERGED_BETA_RAD_PER_PA * p) - 1
     for order, d in out["orders"].items():
-        print(f"P{order} error against converged (alpha, beta): " + ", ".join(
-            f"R={r['resolution']:g}: {100 * r['alpha_error']:+.1f}/{100 * r['beta_error']:+.1f} %"
-            for r in d["rows"]))
+        print(
+            f"P{order} error against converged (alpha, beta): "
+            + ", ".join(
+                f"R={r['resolution']:g}: {100 * r['alpha_error']:+.1f}/{100 * r['beta_error']:+.1f} %"
+                for r in d["rows"]
+            )
+        )
     t = thesis_like()
     out["thesis_like_p1"] = t
-    print(f"thesis-like P1 mesh ({t['n_tets']} tets, uniform {t['element_size_m'] * 1e6:.1f} um): "
-          f"alpha {100 * t['alpha_error']:+.1f} %, beta {100 * t['beta_error']:+.1f} % from converged")
+    print(
+        f"thesis-like P1 mesh ({t['n_tets']} tets, uniform {t['element_size_m'] * 1e6:.1f} um): "
+        f"alpha {100 * t['alpha_error']:+.1f} %, beta {100 * t['beta_error']:+.1f} % from converged"
+    )
     atomic_write_json(OUT, out)
     print(f"wrote {OUT}")
 

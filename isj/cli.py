@@ -319,6 +319,231 @@ def _cmd_mesh(args) -> int:
     return 0
 
 
+def _fe_cache_dir(path: str | None) -> Path:
+    import os
+
+    if path:
+        return Path(path)
+    env = os.environ.get("ISJ_FE_CACHE_DIR")
+    return Path(env) if env else Path.home() / ".cache" / "isj" / "fe"
+
+
+def _load_calibration(path: str | None):
+    from lumped.artifact import Calibration, CorruptCalibration, default_calibration
+
+    try:
+        return Calibration.load(path) if path else default_calibration()
+    except CorruptCalibration as exc:
+        raise UsageError(str(exc)) from None
+
+
+def _warn_outside(cal, designs: dict) -> int:
+    import numpy as np
+
+    n_out = 0
+    for k, mask in cal.outside(designs).items():
+        if mask.any():
+            lo, hi = cal.domain[k]
+            n_out = max(n_out, int(np.count_nonzero(mask)))
+            print(
+                f"isj: warning: {k} outside the calibrated domain [{lo:g}, {hi:g}] Pa for "
+                f"{int(np.count_nonzero(mask))} design(s): the lumped model is extrapolating",
+                file=sys.stderr,
+            )
+    return n_out
+
+
+def _cmd_lumped_solve(args) -> int:
+    from lumped.model import static_response
+
+    cal = _load_calibration(args.calibration)
+    if args.geometry:
+        raise UsageError("--geometry: the lumped model is calibrated for the default geometry only")
+    m = _materials(args)
+    designs = {f"{r}_e_pa": getattr(m, f"{r}_e_pa") for r in _MODULUS_OPTIONS}
+    _warn_outside(cal, designs)
+    r = static_response(cal.factor_array(), pressure_pa=args.pressure, **designs)
+    out = {
+        "alpha_rad": float(r.alpha_rad),
+        "beta_rad": float(r.beta_rad),
+        "alpha_plus_beta_rad": float(r.sum_rad),
+        "beta_over_alpha": float(r.ratio),
+        "pressure_pa": args.pressure,
+        "calibration": args.calibration or "default",
+        "validation": cal.validation,
+    }
+    if args.json:
+        print(json.dumps(out))
+        return 0
+    print(
+        f"lumped model ({out['calibration']} calibration, validated max error alpha "
+        f"{100 * cal.validation.get('max_alpha', float('nan')):.1f} %, beta "
+        f"{100 * cal.validation.get('max_beta', float('nan')):.1f} %)"
+    )
+    print(f"alpha      = {_urad(out['alpha_rad'])} urad")
+    print(f"beta       = {_urad(out['beta_rad'])} urad")
+    print(
+        f"alpha+beta = {_urad(out['alpha_plus_beta_rad'])} urad   beta/alpha = {out['beta_over_alpha']:.3f}"
+    )
+    return 0
+
+
+def _cmd_calibrate(args) -> int:
+    from calibration.pipeline import calibrate
+    from fem.batch import evaluate_design, fe_settings
+    from fem.export import atomic_write_text
+
+    out = Path(args.out)
+    if out.suffix.lower() != ".json" or out.is_dir():
+        raise UsageError(f"--out = {args.out!r}: must be a file ending in .json")
+    settings = fe_settings(order=args.order, resolution=args.resolution)
+    cal = calibrate(
+        evaluate_design,
+        settings,
+        _fe_cache_dir(args.cache),
+        samples=args.samples,
+        validation=args.validation,
+        seed=args.seed,
+        scheduler=args.scheduler,
+        progress=not args.quiet,
+    )
+    atomic_write_text(out, cal.to_json())
+    t, v = cal.training, cal.validation
+    print(
+        f"calibrated on {t['n']} FE designs: max error alpha {100 * t['max_alpha']:.2f} %, "
+        f"beta {100 * t['max_beta']:.2f} %"
+    )
+    if v:
+        print(
+            f"validated on {v['n']} unseen FE designs: max error alpha {100 * v['max_alpha']:.2f} %, "
+            f"beta {100 * v['max_beta']:.2f} %, beta/alpha {100 * v['max_ratio']:.2f} % "
+            f"(RMS {100 * v['rms_alpha']:.2f} / {100 * v['rms_beta']:.2f} / {100 * v['rms_ratio']:.2f} %)"
+        )
+    print(f"wrote {out}")
+    return 0
+
+
+def _range_option(name: str):
+    def parse(text: str) -> tuple[float, float]:
+        lo_txt, sep, hi_txt = text.partition(":")
+        lo = _float(name, lo=0.0)(lo_txt)
+        hi = _float(name, lo=0.0)(hi_txt) if sep else lo
+        if hi < lo:
+            raise argparse.ArgumentTypeError(f"{name} = {text}: LOW:HIGH needs LOW <= HIGH")
+        return lo, hi
+
+    return parse
+
+
+def _explore_designs(args) -> dict:
+    import numpy as np
+
+    ranges = {f"{r}_e_pa": getattr(args, f"{r}_e") for r in _MODULUS_OPTIONS}
+    ranged = [k for k, (lo, hi) in ranges.items() if hi > lo]
+    if args.sample:
+        from scipy.stats import qmc
+
+        u = qmc.LatinHypercube(d=max(len(ranged), 1), seed=args.seed).random(args.sample)
+        cols = {k: u[:, i] for i, k in enumerate(ranged)}
+        n = args.sample
+    else:
+        axes = [np.linspace(0, 1, args.n) for _ in ranged]
+        mesh = np.meshgrid(*axes, indexing="ij") if axes else []
+        cols = {k: m.ravel() for k, m in zip(ranged, mesh, strict=True)}
+        n = args.n ** len(ranged)
+    out = {}
+    for k, (lo, hi) in ranges.items():
+        t = cols.get(k, np.zeros(n))
+        out[k] = np.exp(np.log(lo) + t * (np.log(hi) - np.log(lo)))
+    return out
+
+
+def _cmd_explore(args) -> int:
+    import numpy as np
+
+    from calibration.runner import run_designs
+    from fem.batch import evaluate_design, fe_settings
+    from lumped.model import static_response
+
+    cal = _load_calibration(args.calibration)
+    if args.n < 1 or (args.sample is not None and args.sample < 1) or args.spot_checks < 0:
+        raise UsageError("--n, --sample: must be >= 1; --spot-checks: must be >= 0")
+    designs = _explore_designs(args)
+    n = len(next(iter(designs.values())))
+    if n > 50_000_000:
+        raise UsageError(f"--n/--sample: {n} designs is too many (at most 5e7)")
+    n_out = _warn_outside(cal, designs)
+    t0 = time.perf_counter()
+    lum = static_response(cal.factor_array(), pressure_pa=args.pressure, **designs)
+    t_lumped = time.perf_counter() - t0
+    # spot checks: the two extreme corners of the explored box, then random designs
+    lo_idx, hi_idx = (
+        int(np.argmin(sum(np.log(v) for v in designs.values()))),
+        int(np.argmax(sum(np.log(v) for v in designs.values()))),
+    )
+    rng = np.random.default_rng(args.seed)
+    picks = list(dict.fromkeys([lo_idx, hi_idx] + list(rng.permutation(n)[: args.spot_checks])))
+    picks = picks[: args.spot_checks]
+    checks = []
+    if picks:
+        fe_designs = [{k: float(v[i]) for k, v in designs.items()} for i in picks]
+        settings = fe_settings(order=args.order, resolution=args.resolution, pressure_pa=args.pressure)
+        records = run_designs(
+            fe_designs, evaluate_design, settings, _fe_cache_dir(args.cache), progress=not args.json
+        )
+        for i, rec in zip(picks, records, strict=True):
+            fe = rec["result"]
+            ea = float(lum.alpha_rad[i] / fe["alpha_rad"] - 1)
+            eb = float(lum.beta_rad[i] / fe["beta_rad"] - 1)
+            checks.append(
+                {
+                    "design": rec["design"],
+                    "fe_alpha_rad": fe["alpha_rad"],
+                    "fe_beta_rad": fe["beta_rad"],
+                    "lumped_alpha_rad": float(lum.alpha_rad[i]),
+                    "lumped_beta_rad": float(lum.beta_rad[i]),
+                    "alpha_rel_error": ea,
+                    "beta_rel_error": eb,
+                    "passed": abs(ea) <= args.tolerance and abs(eb) <= args.tolerance,
+                }
+            )
+    failed = [c for c in checks if not c["passed"]]
+    summary = {
+        "n_designs": n,
+        "lumped_time_s": t_lumped,
+        "outside_domain": n_out,
+        "alpha_rad_range": [float(lum.alpha_rad.min()), float(lum.alpha_rad.max())],
+        "beta_rad_range": [float(lum.beta_rad.min()), float(lum.beta_rad.max())],
+        "tolerance": args.tolerance,
+        "spot_checks": checks,
+        "max_spot_error": max(
+            (max(abs(c["alpha_rel_error"]), abs(c["beta_rel_error"])) for c in checks), default=0.0
+        ),
+        "passed": not failed,
+    }
+    if args.json:
+        print(json.dumps(summary))
+    else:
+        print(
+            f"lumped model: {n} designs in {t_lumped * 1e3:.2f} ms; alpha {_urad(lum.alpha_rad.min())} .. "
+            f"{_urad(lum.alpha_rad.max())} urad, beta {_urad(lum.beta_rad.min())} .. "
+            f"{_urad(lum.beta_rad.max())} urad"
+        )
+        for c in checks:
+            print(
+                f"  FE spot check: alpha {100 * c['alpha_rel_error']:+6.2f} %, beta "
+                f"{100 * c['beta_rel_error']:+6.2f} % {'ok' if c['passed'] else 'EXCEEDS tolerance'}"
+            )
+        print(f"{len(checks) - len(failed)}/{len(checks)} spot checks within {100 * args.tolerance:g} %")
+    if failed:
+        print(
+            f"isj: error: {len(failed)} FE spot check(s) exceed the tolerance {args.tolerance:g}",
+            file=sys.stderr,
+        )
+        return 1
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="isj", description="Mechanics of the incus-stapes coupling.")
     parser.add_argument("--version", action="version", version=f"isj {__version__}")
@@ -351,6 +576,61 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--vtu", metavar="PATH", help="write the base case for ParaView (.vtu)")
     p.add_argument("--json", action="store_true", help="print a JSON list")
     p.set_defaults(func=_cmd_cases)
+
+    lum = sub.add_parser("lumped", help="the calibrated lumped model")
+    lsub = lum.add_subparsers(dest="lumped_command", required=True, parser_class=_Parser)
+    p = lsub.add_parser("solve", help="static alpha and beta of one design (microseconds)")
+    _add_design_options(p)
+    _add_mesh_options(p)
+    p.add_argument("--calibration", metavar="PATH", help="calibration file (default: the shipped one)")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=_cmd_lumped_solve)
+
+    p = sub.add_parser("calibrate", help="fit the lumped model to FE results (spec 3)")
+    p.add_argument("--samples", type=int, default=64, help="training designs (default 64)")
+    p.add_argument("--validation", type=int, default=32, help="held-out designs (default 32)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the design of experiments")
+    p.add_argument("--scheduler", metavar="ADDRESS", help="Dask scheduler address (default: local processes)")
+    p.add_argument("--out", metavar="PATH", default="calibration.json", help="artifact to write (.json)")
+    p.add_argument("--cache", metavar="DIR", help="FE result cache (default ~/.cache/isj/fe)")
+    p.add_argument("--order", type=int, choices=(1, 2), default=2, help="FE order (default 2)")
+    p.add_argument(
+        "--resolution",
+        metavar="R",
+        type=_float("--resolution", lo=0.0),
+        default=1.0,
+        help="FE mesh resolution (default 1)",
+    )
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=_cmd_calibrate)
+
+    p = sub.add_parser("explore", help="lumped model over many designs, guarded by FE spot checks")
+    d = Materials()
+    for r in _MODULUS_OPTIONS:
+        p.add_argument(
+            f"--{r}-e",
+            metavar="PA[:PA]",
+            type=_range_option(f"--{r}-e"),
+            default=(d.youngs(r), d.youngs(r)),
+            help=f"modulus of the {r} (Pa), or a LOW:HIGH range explored log-uniformly",
+        )
+    p.add_argument("--pressure", metavar="PA", type=_float("--pressure"), default=DEFAULT_PRESSURE_PA)
+    p.add_argument("--n", type=int, default=5, help="grid points per ranged modulus (default 5)")
+    p.add_argument("--sample", type=int, help="instead of a grid: N Latin-hypercube designs")
+    p.add_argument("--seed", type=int, default=0, help="seed for --sample and the spot checks")
+    p.add_argument("--spot-checks", type=int, default=4, help="FE spot checks K (default 4)")
+    p.add_argument(
+        "--tolerance",
+        type=_float("--tolerance", lo=0.0),
+        default=0.03,
+        help="largest relative error of a spot check (default 0.03)",
+    )
+    p.add_argument("--calibration", metavar="PATH", help="calibration file (default: the shipped one)")
+    p.add_argument("--cache", metavar="DIR", help="FE result cache (default ~/.cache/isj/fe)")
+    p.add_argument("--order", type=int, choices=(1, 2), default=2, help="FE order of the spot checks")
+    p.add_argument("--resolution", metavar="R", type=_float("--resolution", lo=0.0), default=1.0)
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=_cmd_explore)
 
     p = fsub.add_parser("mesh", help="mesh quality and stiffness bandwidth (thesis 6.5)")
     _add_mesh_options(p)

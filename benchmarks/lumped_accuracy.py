@@ -1,0 +1,74 @@
+"""Accuracy of the shipped lumped calibration against FE: held-out points and the thesis cases.
+
+Run:  .venv/bin/python benchmarks/lumped_accuracy.py
+
+Prints the validation errors recorded in the shipped calibration (FE points
+the fit never saw), then runs the seven thesis cases through FE (cached) and
+the lumped model and compares α, β, β/α and their trends (the sign of each
+case's change from the base case).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from calibration.runner import run_designs
+from fem.batch import evaluate_design, fe_settings
+from isj.cases import THESIS_CASES
+from isj.design import DEFAULT_PRESSURE_PA
+from lumped.artifact import default_calibration
+from lumped.model import static_response
+
+
+def _trend(a, b, i, threshold=1e-3):
+    """Sign of case i's change of α and β from the base case (0 below the threshold)."""
+    rel = np.array([a[i] / a[0] - 1, b[i] / b[0] - 1])
+    return np.sign(rel) * (np.abs(rel) > threshold)
+
+
+def main():
+    cal = default_calibration()
+    v = cal.validation
+    print(
+        f"held-out FE points: {v['n']}; max error alpha {100 * v['max_alpha']:.2f} %, beta "
+        f"{100 * v['max_beta']:.2f} %, beta/alpha {100 * v['max_ratio']:.2f} %; RMS "
+        f"{100 * v['rms_alpha']:.2f} / {100 * v['rms_beta']:.2f} / {100 * v['rms_ratio']:.2f} %"
+    )
+    designs = [
+        {"pedicle_e_pa": c.pedicle_e_pa, "gap_e_pa": c.gap_e_pa, "capsule_e_pa": c.capsule_e_pa}
+        for c in THESIS_CASES
+    ]
+    recs = run_designs(
+        designs, evaluate_design, fe_settings(), Path.home() / ".cache" / "isj" / "fe", progress=False
+    )
+    lum = static_response(
+        cal.factor_array(),
+        pressure_pa=DEFAULT_PRESSURE_PA,
+        **{k: np.array([d[k] for d in designs]) for k in designs[0]},
+    )
+    fe_a = np.array([r["result"]["alpha_rad"] for r in recs])
+    fe_b = np.array([r["result"]["beta_rad"] for r in recs])
+    print(
+        f"{'case':7} {'FE alpha':>9} {'lumped':>9} {'err':>7} {'FE beta':>9} {'lumped':>9} {'err':>7} trend"
+    )
+    same = 0
+    for i, c in enumerate(THESIS_CASES):
+        trend_fe = _trend(fe_a, fe_b, i)
+        trend_l = _trend(lum.alpha_rad, lum.beta_rad, i)
+        ok = bool(np.all(trend_fe == trend_l))
+        same += ok
+        la, lb = lum.alpha_rad[i], lum.beta_rad[i]
+        print(
+            f"{c.name:7} {fe_a[i] * 1e6:9.4f} {la * 1e6:9.4f} {100 * (la / fe_a[i] - 1):+6.2f}% "
+            f"{fe_b[i] * 1e6:9.4f} {lb * 1e6:9.4f} {100 * (lb / fe_b[i] - 1):+6.2f}% "
+            f"{'same' if ok else 'DIFFERENT'}"
+        )
+    print(
+        f"trends (sign of the change of alpha and beta from the base case, > 0.1 %): {same}/7 cases identical"
+    )
+
+
+if __name__ == "__main__":
+    main()

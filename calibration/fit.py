@@ -1,0 +1,105 @@
+"""Fit the lumped model's factors to FE results with CasADi + IPOPT.
+
+Least squares on the relative errors of α and β, over the logarithms of the
+factors (they are positive and span orders of magnitude), with a
+Gauss–Newton Hessian JᵀJ (as in CasADi's ``sysid.py`` example). The solver's
+status is checked: a failed fit raises :class:`FitFailed` carrying IPOPT's
+statistics. FE results come in as plain data; nothing here needs gmsh.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from isj.design import Geometry
+from lumped.model import FACTOR_NAMES, MODULI, Lever, equations, moduli_arrays
+
+#: Bound on |log factor| during the fit.
+LOG_BOUND = 25.0
+
+#: Starting point of the fit: the idealised physics (all factors 1).
+INITIAL_FACTORS = np.ones(len(FACTOR_NAMES))
+
+
+class FitFailed(RuntimeError):
+    """IPOPT did not converge; ``stats`` holds the solver's statistics."""
+
+    def __init__(self, message: str, stats: dict):
+        super().__init__(message)
+        self.stats = stats
+
+
+@dataclass(frozen=True)
+class FitResult:
+    factors: np.ndarray
+    rms_rel_error: float
+    max_rel_error: float
+    iterations: int
+    status: str
+
+
+def fe_arrays(records: list[dict]) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray]:
+    """Moduli arrays and FE α, β (rad/Pa) from records ``{"design", "alpha_per_pa", "beta_per_pa"}``."""
+    designs = {k: np.array([r["design"].get(k, np.nan) for r in records]) for k in MODULI}
+    designs = {k: v for k, v in designs.items() if not np.all(np.isnan(v))}
+    alpha = np.array([r["alpha_per_pa"] for r in records], dtype=float)
+    beta = np.array([r["beta_per_pa"] for r in records], dtype=float)
+    return moduli_arrays(designs), alpha, beta
+
+
+def relative_errors(factors, E, alpha_fe, beta_fe, lever: Lever) -> tuple[np.ndarray, np.ndarray]:
+    a, b = equations(E, np.asarray(factors, dtype=float), lever)
+    return a / alpha_fe - 1, b / beta_fe - 1
+
+
+def fit_factors(
+    records: list[dict], geometry: Geometry | None = None, x0=None, max_iter: int = 500
+) -> FitResult:
+    """Calibrate the lumped factors on FE records (see :func:`fe_arrays`)."""
+    import casadi as ca
+
+    lever = Lever.from_geometry(geometry or Geometry())
+    E, alpha_fe, beta_fe = fe_arrays(records)
+    n = len(FACTOR_NAMES)
+    logf = ca.SX.sym("log_factors", n)
+    f = ca.exp(logf)
+    Edm = {k: ca.DM(np.broadcast_to(v, alpha_fe.shape)) for k, v in E.items()}
+    a, b = equations(Edm, [f[i] for i in range(n)], lever)
+    r = ca.vertcat(a / ca.DM(alpha_fe) - 1, b / ca.DM(beta_fe) - 1)
+    J = ca.jacobian(r, logf)
+    obj = 0.5 * ca.dot(r, r)
+    # Gauss–Newton Hessian of the Lagrangian: JᵀJ (objective factor sigma)
+    sigma = ca.SX.sym("sigma")
+    lam = ca.SX.sym("lam", 0)
+    hess = ca.Function(
+        "nlp_hess_l", [logf, ca.SX.sym("p", 0), sigma, lam], [ca.triu(sigma * ca.mtimes(J.T, J))]
+    )
+    solver = ca.nlpsol(
+        "fit",
+        "ipopt",
+        {"x": logf, "f": obj},
+        {
+            "hess_lag": hess,
+            "print_time": False,
+            "ipopt": {"print_level": 0, "sb": "yes", "tol": 1e-12, "max_iter": max_iter},
+        },
+    )
+    start = np.log(INITIAL_FACTORS if x0 is None else np.asarray(x0, dtype=float))
+    # bounds keep exp() finite: a factor that wants to vanish (a term the data
+    # do not need) parks at e^-25 instead of running to -inf
+    sol = solver(x0=start, lbx=-LOG_BOUND, ubx=LOG_BOUND)
+    stats = solver.stats()
+    if not stats.get("success", False):
+        raise FitFailed(f"calibration fit failed: IPOPT {stats.get('return_status')}", dict(stats))
+    factors = np.exp(np.asarray(sol["x"]).ravel())
+    ea, eb = relative_errors(factors, E, alpha_fe, beta_fe, lever)
+    err = np.abs(np.concatenate([ea, eb]))
+    return FitResult(
+        factors=factors,
+        rms_rel_error=float(np.sqrt(np.mean(err**2))),
+        max_rel_error=float(err.max()),
+        iterations=int(stats.get("iter_count", -1)),
+        status=str(stats.get("return_status")),
+    )

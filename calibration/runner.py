@@ -1,0 +1,310 @@
+"""Run FE evaluations of many designs through an executor, cached on disk.
+
+The evaluator is any picklable top-level callable ``evaluate(design, settings)
+-> dict`` (for the FE model: ``fem.batch.evaluate_design``, which this package
+must not import; the caller passes it in). Each result is stored as soon as it
+arrives, one JSON file per design, so an interrupted run resumes where it
+stopped. Records have the form::
+
+    {"key": sha256 hex, "design": {...}, "settings": {...}, "result": {...}}
+
+Workers are started with the ``spawn`` method: a forked child of a process
+that has already run MKL/OpenMP code (PARDISO) or holds threads (Dask, tqdm)
+can deadlock. Scripts that call :func:`run_designs` therefore need the usual
+``if __name__ == "__main__":`` guard.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import multiprocessing
+import os
+import tempfile
+import warnings
+from collections.abc import Callable, Mapping, Sequence
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from pathlib import Path
+
+from tqdm.auto import tqdm
+
+RECORD_FIELDS = ("key", "design", "settings", "result")
+
+
+class CorruptCacheEntry(UserWarning):
+    """A cached record was unreadable or inconsistent; it was deleted and will be recomputed."""
+
+
+class EvaluationError(RuntimeError):
+    """One or more designs failed to evaluate; ``failures`` lists ``(design, exception)``."""
+
+    def __init__(self, message: str, failures: list[tuple[dict, BaseException]]):
+        super().__init__(message)
+        self.failures = failures
+
+
+def _canonical(obj, where: str = "value"):
+    """JSON-ready copy: str keys, lists for sequences, plain int/float (finite), str, bool, None."""
+    if isinstance(obj, Mapping):
+        out = {}
+        for k, v in obj.items():
+            if not isinstance(k, str):
+                raise TypeError(f"{where}: key {k!r} is not a string")
+            out[k] = _canonical(v, f"{where}[{k!r}]")
+        return out
+    if isinstance(obj, list | tuple):
+        return [_canonical(v, f"{where}[{i}]") for i, v in enumerate(obj)]
+    if hasattr(obj, "dtype") and getattr(obj, "shape", None) == ():  # numpy scalar → Python
+        obj = obj.item()
+    if isinstance(obj, str | bool) or obj is None:
+        return obj
+    if isinstance(obj, int):
+        return int(obj)
+    if isinstance(obj, float):
+        if not math.isfinite(obj):
+            raise ValueError(f"{where} = {obj!r}: not a finite number")
+        return float(obj)
+    raise TypeError(f"{where} = {obj!r}: not JSON-able (type {type(obj).__name__})")
+
+
+def _canonical_design(design: Mapping) -> dict[str, float]:
+    # moduli are floats: 5e9 and 5_000_000_000 are the same design and get the same key
+    out = _canonical(design, "design")
+    for k, v in out.items():
+        if isinstance(v, bool) or not isinstance(v, int | float):
+            raise TypeError(f"design[{k!r}] = {v!r}: must be a number")
+        out[k] = float(v)
+    return out
+
+
+def _dumps(obj) -> str:
+    # json writes floats with float.__repr__: shortest string that round-trips exactly
+    return json.dumps(obj, sort_keys=True, separators=(",", ":"), allow_nan=False)
+
+
+def design_key(design: Mapping, settings: Mapping) -> str:
+    """sha256 (hex) of the canonical JSON of ``{"design": ..., "settings": ...}``.
+
+    Canonical: sorted keys, no whitespace, floats written with ``repr`` (exact),
+    numeric design values as floats; non-finite numbers are rejected.
+    """
+    payload = {"design": _canonical_design(design), "settings": _canonical(settings, "settings")}
+    return hashlib.sha256(_dumps(payload).encode()).hexdigest()
+
+
+def _reject_constant(name: str):
+    raise ValueError(f"non-finite number {name}")
+
+
+class ResultCache:
+    """Directory of records, one ``<key>.json`` per design, written atomically.
+
+    A record that cannot be parsed, misses fields, holds non-finite numbers or
+    does not match its key is reported with :class:`CorruptCacheEntry`, deleted
+    and treated as missing: never used.
+    """
+
+    def __init__(self, directory: str | os.PathLike):
+        self.directory = Path(directory)
+        self.directory.mkdir(parents=True, exist_ok=True)
+
+    def path(self, key: str) -> Path:
+        return self.directory / f"{key}.json"
+
+    def get(self, key: str) -> dict | None:
+        """The record stored under ``key``, or None if absent or corrupt."""
+        path = self.path(key)
+        try:
+            text = path.read_text(encoding="utf-8")
+        except FileNotFoundError:
+            return None
+        try:
+            record = json.loads(text, parse_constant=_reject_constant)
+            self._check(key, record)
+        except (ValueError, TypeError, KeyError) as exc:  # JSONDecodeError is a ValueError
+            msg = f"corrupt cache entry {path} ({exc}); deleted, will recompute"
+            warnings.warn(msg, CorruptCacheEntry, stacklevel=2)
+            path.unlink(missing_ok=True)
+            return None
+        return record
+
+    @staticmethod
+    def _check(key: str, record) -> None:
+        if not isinstance(record, dict) or set(record) != set(RECORD_FIELDS):
+            fields = sorted(record) if isinstance(record, dict) else type(record).__name__
+            raise ValueError(f"fields {fields}, expected {sorted(RECORD_FIELDS)}")
+        if record["key"] != key:
+            raise ValueError(f"stored key {record['key']!r} differs from the file name")
+        if not isinstance(record["result"], dict):
+            raise ValueError("result is not an object")
+        _canonical(record["result"], "result")  # raises on huge literals read as inf
+        if design_key(record["design"], record["settings"]) != key:
+            raise ValueError("design and settings do not hash to the key")
+
+    def put(self, key: str, design: Mapping, settings: Mapping, result: Mapping) -> dict:
+        """Store a record atomically and return it as it reads back (plain JSON types)."""
+        record = {
+            "key": key,
+            "design": _canonical_design(design),
+            "settings": _canonical(settings, "settings"),
+            "result": _canonical(result, "result"),
+        }
+        text = _dumps(record)
+        # temp file in the same directory, then os.replace: readers never see half a record
+        fd, tmp = tempfile.mkstemp(prefix=f".{key}.", suffix=".tmp", dir=self.directory)
+        try:
+            with os.fdopen(fd, "w", encoding="utf-8") as f:
+                f.write(text)
+                f.flush()
+                os.fsync(f.fileno())
+            os.replace(tmp, self.path(key))
+        except BaseException:
+            Path(tmp).unlink(missing_ok=True)
+            raise
+        return json.loads(text)
+
+
+def _client_for(scheduler):
+    """(client, owned): a Dask client for an address string or an existing client."""
+    if isinstance(scheduler, str):
+        from distributed import Client  # lazy: dask is slow to import and optional here
+
+        return Client(scheduler), True
+    if hasattr(scheduler, "submit") and hasattr(scheduler, "cancel"):
+        return scheduler, False
+    raise TypeError(f"scheduler = {scheduler!r}: must be an address string or a distributed.Client")
+
+
+def run_designs(
+    designs: Sequence[Mapping],
+    evaluate: Callable[[dict, dict], Mapping],
+    settings: Mapping,
+    cache_dir: str | os.PathLike,
+    scheduler=None,
+    max_workers: int | None = None,
+    progress: bool = True,
+) -> list[dict]:
+    """Evaluate ``designs`` (skipping cached ones) and return their records in order.
+
+    Parameters
+    ----------
+    designs : sequence of dict
+        Moduli (Pa) per design, e.g. from :func:`calibration.doe.sample`.
+        Duplicates are evaluated once.
+    evaluate : callable
+        Picklable top-level ``evaluate(design, settings) -> dict`` returning
+        JSON-able finite numbers (SI units).
+    settings : dict
+        Evaluation settings shared by all designs (JSON-able); part of each key.
+    cache_dir : path
+        Directory of the :class:`ResultCache`.
+    scheduler : None, str or distributed.Client
+        None: a local ``ProcessPoolExecutor``. An address such as
+        ``"tcp://127.0.0.1:8786"`` or a client: Dask distributed (the cluster
+        decides the parallelism; ``max_workers`` is ignored).
+    max_workers : int, optional
+        Worker processes of the local pool; default 1, since each FE solve
+        already uses every core (PARDISO) and a model holds its matrices.
+    progress : bool
+        Show a tqdm bar on stderr (only when it is a terminal).
+
+    Returns
+    -------
+    list of dict
+        ``{"key", "design", "settings", "result"}`` per design, in input order.
+
+    Raises
+    ------
+    EvaluationError
+        If any evaluation raised or returned something that cannot be stored.
+        It names the designs; every other result has been cached first.
+    """
+    settings = _canonical(settings, "settings")
+    designs = [_canonical_design(d) for d in designs]
+    keys = [design_key(d, settings) for d in designs]
+    cache = ResultCache(cache_dir)
+    records: dict[str, dict] = {}
+    todo: dict[str, dict] = {}
+    for key, design in zip(keys, designs, strict=True):
+        if key in records or key in todo:
+            continue
+        rec = cache.get(key)
+        if rec is None:
+            todo[key] = design
+        else:
+            records[key] = rec
+
+    failures: list[tuple[dict, BaseException]] = []
+    if todo:
+        bar = tqdm(
+            total=len(todo), desc="FE designs", unit="design", disable=None if progress else True,
+            postfix={"cached": len(records)},
+        )  # fmt: skip
+        try:
+
+            def store(key: str, outcome: Callable[[], Mapping]) -> None:
+                try:
+                    result = outcome()
+                    if not isinstance(result, Mapping):
+                        raise TypeError(f"evaluate returned {type(result).__name__}, expected a dict")
+                    records[key] = cache.put(key, todo[key], settings, result)
+                except Exception as exc:  # keep going: the other results are still worth caching
+                    failures.append((todo[key], exc))
+                bar.update()
+
+            if scheduler is None:
+                _run_pool(todo, evaluate, settings, max_workers, store)
+            else:
+                _run_dask(todo, evaluate, settings, scheduler, store)
+        finally:
+            bar.close()
+
+    if failures:
+        lines = [f"  {d}: {type(e).__name__}: {e}" for d, e in failures]
+        raise EvaluationError(
+            f"{len(failures)} of {len(todo)} design(s) failed (the others are cached in {cache.directory}):\n"
+            + "\n".join(lines),
+            failures,
+        ) from failures[0][1]
+    return [records[k] for k in keys]
+
+
+def _run_pool(todo: dict, evaluate, settings: dict, max_workers: int | None, store) -> None:
+    workers = 1 if max_workers is None else int(max_workers)
+    if workers < 1:
+        raise ValueError(f"max_workers = {max_workers!r}: must be >= 1")
+    pool = ProcessPoolExecutor(min(workers, len(todo)), mp_context=multiprocessing.get_context("spawn"))
+    pending = {pool.submit(evaluate, design, settings): key for key, design in todo.items()}
+    try:
+        while pending:
+            done, _ = wait(pending, return_when=FIRST_COMPLETED)
+            for fut in done:
+                store(pending.pop(fut), fut.result)
+    except BaseException:
+        # interrupted (Ctrl-C, or a BaseException out of a worker): drop what has not
+        # started, let the running ones finish, and keep whatever finished cleanly
+        pool.shutdown(wait=True, cancel_futures=True)
+        for fut, key in pending.items():
+            if fut.done() and not fut.cancelled() and fut.exception() is None:
+                store(key, fut.result)
+        raise
+    pool.shutdown(wait=True)
+
+
+def _run_dask(todo: dict, evaluate, settings: dict, scheduler, store) -> None:
+    from distributed import as_completed
+
+    client, owned = _client_for(scheduler)
+    try:
+        # pure=False: a failed attempt under the same task key must not be reused on retry
+        pending = {client.submit(evaluate, design, settings, pure=False): key for key, design in todo.items()}
+        try:
+            for fut in as_completed(list(pending)):
+                store(pending.pop(fut), fut.result)
+        finally:
+            if pending:
+                client.cancel(list(pending))
+    finally:
+        if owned:
+            client.close()

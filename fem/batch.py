@@ -1,0 +1,173 @@
+"""One FE evaluation per design, for batch runners (``calibration.runner``).
+
+:func:`evaluate_design` is a picklable top-level function taking and returning
+plain JSON-able data. Building a model (meshing and assembly) costs seconds
+and a solve with new moduli about as much again, so each process keeps its
+models in a module-level dict keyed by (geometry, order, resolution) and only
+solves for the next design.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import threading
+from collections.abc import Mapping
+from pathlib import Path
+
+from isj.design import DEFAULT_PRESSURE_PA, REGIONS, Geometry, InvalidParameter, Materials, check_pressure
+
+from .model import PedicleJointModel
+
+#: Keys a settings dict may hold (see :func:`fe_settings`).
+SETTINGS_KEYS = frozenset({"order", "resolution", "geometry", "pressure_pa", "fem_code"})
+
+#: Keys a design may hold: the Young's moduli (Pa) and Poisson's ratio.
+DESIGN_KEYS = frozenset({f"{r}_e_pa" for r in REGIONS} | {"nu"})
+
+#: Models built in this process, by (geometry fields, order, resolution); few, since each holds
+#: its matrices and factorization (tens to hundreds of MB).
+_MODELS: dict[tuple, tuple[PedicleJointModel, str]] = {}
+_MAX_MODELS = 4
+# gmsh is process-global state and a model's solver is refactored in place, so
+# threads of one process (Dask threaded workers) must take turns
+_LOCK = threading.RLock()
+
+
+def _code_digest() -> str:
+    here = Path(__file__).resolve().parent
+    h = hashlib.sha256()
+    for path in [*sorted(here.glob("*.py")), here.parent / "isj" / "design.py"]:
+        h.update(path.name.encode() + b"\0" + path.read_bytes())
+    return h.hexdigest()
+
+
+# read once, at import: the digest must describe the code this process runs, not
+# files edited on disk since
+_FEM_CODE = _code_digest()
+
+
+def fem_code_digest() -> str:
+    """sha256 (hex) of the sources of ``fem`` and ``isj.design`` as imported by this process.
+
+    Part of :func:`fe_settings`, hence of every cached result's key: editing
+    the FE code makes old results unreachable instead of silently stale.
+    """
+    return _FEM_CODE
+
+
+def fe_settings(
+    order: int = 2,
+    resolution: float = 1.0,
+    geometry: Geometry | Mapping | None = None,
+    pressure_pa: float = DEFAULT_PRESSURE_PA,
+) -> dict:
+    """Canonical settings for :func:`evaluate_design`, every value explicit.
+
+    Parameters
+    ----------
+    order : 1 or 2 (P1 or P2 tetrahedra)
+    resolution : refinement factor of every element size (> 0)
+    geometry : Geometry or dict of its fields (m); None = defaults
+    pressure_pa : load on the incus's −x face (Pa)
+
+    Returns
+    -------
+    dict
+        ``{"order", "resolution", "geometry" (all fields, m), "pressure_pa",
+        "fem_code"}``: JSON-able, so it can key a result cache.
+    """
+    geom = _geometry(geometry)
+    _check_mesh(order, resolution)
+    return {
+        "order": int(order),
+        "resolution": float(resolution),
+        "geometry": dataclasses.asdict(geom),
+        "pressure_pa": check_pressure(pressure_pa),
+        "fem_code": fem_code_digest(),
+    }
+
+
+def _geometry(geometry: Geometry | Mapping | None) -> Geometry:
+    if geometry is None or isinstance(geometry, Geometry):
+        return geometry or Geometry()
+    unknown = set(geometry) - {f.name for f in dataclasses.fields(Geometry)}
+    if unknown:
+        raise InvalidParameter(f"unknown geometry fields {sorted(unknown)}")
+    return Geometry(**{k: float(v) for k, v in geometry.items()})
+
+
+def _check_mesh(order, resolution) -> None:
+    if order not in (1, 2) or isinstance(order, bool):
+        raise InvalidParameter(f"order = {order!r}: must be 1 or 2")
+    if not isinstance(resolution, int | float) or not 0 < resolution < float("inf"):
+        raise InvalidParameter(f"resolution = {resolution!r}: must be a finite number > 0")
+
+
+def _model(geometry: Geometry, order: int, resolution: float) -> tuple[PedicleJointModel, str]:
+    """The memoised (model, mesh content hash) for this process."""
+    key = (tuple(dataclasses.asdict(geometry).items()), order, resolution)
+    if key not in _MODELS:
+        if len(_MODELS) >= _MAX_MODELS:
+            _MODELS.pop(next(iter(_MODELS)))  # oldest first
+        model = PedicleJointModel(geometry, order=order, resolution=resolution)
+        _MODELS[key] = (model, model.mesh.content_hash())
+    return _MODELS[key]
+
+
+def evaluate_design(design: Mapping, settings: Mapping) -> dict:
+    """Static FE response of one design (SI units, plain Python types).
+
+    Parameters
+    ----------
+    design : dict
+        Moduli over ``Materials()`` defaults: ``"pedicle_e_pa"``, ``"gap_e_pa"``,
+        ... (Pa), optionally ``"nu"``.
+    settings : dict
+        ``order`` (default 2), ``resolution`` (default 1.0), ``geometry``
+        (dict of :class:`~isj.design.Geometry` fields, m), ``pressure_pa``
+        (default ``DEFAULT_PRESSURE_PA``); best made by :func:`fe_settings`.
+
+    Returns
+    -------
+    dict
+        ``alpha_rad``, ``beta_rad``, ``alpha_ls_rad``, ``beta_ls_rad`` (rad),
+        ``max_disp_m`` (m), ``strain_energy_j`` (J per region), ``n_dofs``,
+        ``mesh_hash`` (sha256 of the mesh).
+
+    Raises
+    ------
+    InvalidParameter
+        Unknown keys or invalid values; settings made for other FE code.
+    """
+    unknown = set(settings) - SETTINGS_KEYS
+    if unknown:
+        raise InvalidParameter(f"unknown settings {sorted(unknown)}; valid: {sorted(SETTINGS_KEYS)}")
+    unknown = set(design) - DESIGN_KEYS
+    if unknown:
+        raise InvalidParameter(f"unknown design keys {sorted(unknown)}; valid: {sorted(DESIGN_KEYS)}")
+    if "fem_code" in settings and settings["fem_code"] != fem_code_digest():
+        # a result computed now would be cached under a key that claims older code
+        raise InvalidParameter(
+            "settings['fem_code'] is for other FE code; rebuild the settings with fe_settings()"
+        )
+    order = settings.get("order", 2)
+    resolution = settings.get("resolution", 1.0)
+    _check_mesh(order, resolution)
+    geometry = _geometry(settings.get("geometry"))
+    pressure = check_pressure(settings.get("pressure_pa", DEFAULT_PRESSURE_PA))
+    materials = Materials(**{k: float(v) for k, v in design.items()})
+    with _LOCK:
+        model, mesh_hash = _model(geometry, int(order), float(resolution))
+        res = model.solve(materials, pressure)
+        n_dofs = int(model.n_dofs)
+    return {
+        "alpha_rad": float(res.alpha_rad),
+        "beta_rad": float(res.beta_rad),
+        "alpha_ls_rad": float(res.alpha_ls_rad),
+        "beta_ls_rad": float(res.beta_ls_rad),
+        "max_disp_m": float(res.max_disp_m),
+        "strain_energy_j": {str(k): float(v) for k, v in res.strain_energy_j.items()},
+        "n_dofs": n_dofs,
+        "mesh_hash": mesh_hash,
+    }

@@ -1,0 +1,104 @@
+"""The calibration artifact: fitted factors and where they hold (JSON).
+
+Written by ``calibration`` (``isj calibrate``), read here so that the lumped
+model works without the calibration package. A default calibration ships in
+``lumped/data/default_calibration.json``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import asdict, dataclass, field
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+
+from .model import FACTOR_NAMES
+
+FORMAT_VERSION = 1
+
+
+class CorruptCalibration(ValueError):
+    """A calibration file is missing, unreadable or inconsistent."""
+
+
+@dataclass(frozen=True)
+class Calibration:
+    """Fitted factors, their domain of validity, their errors and provenance.
+
+    ``domain`` maps a modulus name to its [low, high] bounds (Pa);
+    ``training``/``validation`` hold error statistics (relative, e.g.
+    ``max_alpha``); ``fe_settings`` the FE model the factors were fitted to.
+    """
+
+    factors: dict[str, float]
+    domain: dict[str, list[float]]
+    training: dict = field(default_factory=dict)
+    validation: dict = field(default_factory=dict)
+    fe_settings: dict = field(default_factory=dict)
+    provenance: dict = field(default_factory=dict)
+    format: int = FORMAT_VERSION
+
+    def factor_array(self) -> np.ndarray:
+        return np.array([self.factors[n] for n in FACTOR_NAMES], dtype=float)
+
+    def outside(self, designs: dict) -> dict[str, np.ndarray]:
+        """Per modulus, a boolean array: which designs lie outside the calibrated domain."""
+        out = {}
+        for k, (lo, hi) in self.domain.items():
+            if k in designs:
+                v = np.atleast_1d(np.asarray(designs[k], dtype=float))
+                out[k] = (v < lo * (1 - 1e-9)) | (v > hi * (1 + 1e-9))
+        return out
+
+    def to_json(self) -> str:
+        return json.dumps(asdict(self), indent=2, sort_keys=True) + "\n"
+
+    @classmethod
+    def from_dict(cls, d: dict, source: str = "calibration") -> Calibration:
+        try:
+            if d.get("format") != FORMAT_VERSION:
+                raise CorruptCalibration(f"{source}: format {d.get('format')!r}, expected {FORMAT_VERSION}")
+            factors = {n: float(d["factors"][n]) for n in FACTOR_NAMES}
+            domain = {k: [float(v[0]), float(v[1])] for k, v in d["domain"].items()}
+        except CorruptCalibration:
+            raise
+        except (KeyError, TypeError, ValueError, IndexError, AttributeError) as exc:
+            raise CorruptCalibration(f"{source}: not a valid isj calibration ({exc!r})") from None
+        bad = [n for n, v in factors.items() if not (math.isfinite(v) and v >= 0)]
+        if bad:
+            raise CorruptCalibration(f"{source}: factor(s) {', '.join(bad)} not finite and >= 0")
+        if any(not (0 < lo <= hi) for lo, hi in domain.values()):
+            raise CorruptCalibration(f"{source}: domain bounds must satisfy 0 < low <= high")
+        return cls(
+            factors=factors,
+            domain=domain,
+            training=dict(d.get("training", {})),
+            validation=dict(d.get("validation", {})),
+            fe_settings=dict(d.get("fe_settings", {})),
+            provenance=dict(d.get("provenance", {})),
+        )
+
+    @classmethod
+    def load(cls, path: str | Path) -> Calibration:
+        """Read a calibration file; raise :class:`CorruptCalibration` with a one-line reason."""
+        path = Path(path)
+        try:
+            d = json.loads(path.read_text())
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+            raise CorruptCalibration(f"calibration {str(path)!r}: cannot be read ({exc})") from None
+        if not isinstance(d, dict):
+            raise CorruptCalibration(f"calibration {str(path)!r}: not a JSON object")
+        return cls.from_dict(d, source=f"calibration {str(path)!r}")
+
+
+DEFAULT_CALIBRATION = "default_calibration.json"
+
+
+def default_calibration() -> Calibration:
+    """The calibration that ships with the package."""
+    ref = resources.files("lumped") / "data" / DEFAULT_CALIBRATION
+    d = json.loads(ref.read_text())
+    return Calibration.from_dict(d, source="default calibration")

@@ -1,0 +1,178 @@
+"""Beam-and-spring reduced model of the pedicle and the joint (spec §3), static.
+
+The load path along z: the pressure on the incus's −x face makes a force
+P = p · A_face at the face centroid z_load. It bends the pedicle (a beam
+clamped into the lenticular plate), and the moment it carries flexes the joint
+(gap and capsule) below the plate.
+
+β, the rotation across the pedicle, is three compliances in series:
+
+- beam bending, ∫ M/(E_p I) dz = P L d_mid / (E_p I), with d_mid the distance
+  from z_load to the pedicle's mid-length;
+- the pedicle's root turning in the plate, like a rigid punch in an elastic
+  block, M_root / (E_plate b_x² b_y), reduced as the gap under the plate
+  stiffens relative to it: 1 / (1 + f (E_gap/E_plate)^¼), the ¼ power of a
+  beam on an elastic foundation's characteristic length;
+- the same at its top, in the incus: M_top / (E_incus b_x² b_y).
+
+α, the rotation across the joint under the moment M_j = P (z_load − z_joint),
+comes from two paths in parallel plus a series term:
+
+- the gap as a thin bonded layer, k_gap ∝ E_gap j_y j_x³ / (12 t);
+- the capsule's ±x walls in tension and compression over their free length,
+  k_cap ∝ E_cap A_wall r², in series with their attachments to the plate
+  (∝ E_plate^¾ E_cap^¼ j_y j_x²: the strip's load spreads into the plate over a
+  length that grows with the capsule's stiffness relative to the plate's; a fit
+  with a free exponent gave 0.27) and to the stapes head (∝ E_stapes j_y j_x²);
+- the bulk of the plate and stapes head, ∝ 1/(E j_y j_x²).
+
+Each term carries one dimensionless factor (``FACTOR_NAMES``), calibrated
+against FE results (``calibration``). The equations are written once, in plain
+arithmetic, so the same function evaluates numpy arrays (thousands of designs
+at once) and builds CasADi expressions for the fit.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from isj.design import DEFAULT_PRESSURE_PA, Geometry, Materials
+
+#: Calibrated dimensionless factors, in the order of :func:`equations`' ``factors``.
+FACTOR_NAMES: tuple[str, ...] = (
+    "pedicle_bending",
+    "pedicle_root",
+    "pedicle_top",
+    "root_foundation",
+    "gap",
+    "capsule",
+    "attachment_plate",
+    "attachment_stapes",
+    "plate_bulk",
+    "stapes_bulk",
+)
+
+#: Moduli the lumped model reads (Pa), as in :class:`isj.design.Materials`.
+MODULI: tuple[str, ...] = (
+    "pedicle_e_pa",
+    "gap_e_pa",
+    "capsule_e_pa",
+    "plate_e_pa",
+    "stapes_e_pa",
+    "incus_e_pa",
+)
+
+
+@dataclass(frozen=True)
+class Lever:
+    """Geometric constants of the load path (SI), derived once from a Geometry."""
+
+    force_per_pa: float  # N/Pa: area of the loaded face
+    beam: float  # L d_mid / I (1/m²): beam bending per unit force and modulus
+    root: float  # M_root per N / (b_x² b_y) (1/m²)
+    top: float  # M_top per N / (b_x² b_y) (1/m²)
+    joint_arm: float  # z_load − z_joint (m)
+    gap: float  # j_y j_x³ / (12 t) (m³): rotational stiffness per unit modulus
+    capsule: float  # 2 A_wall r² / L_free (m³)
+    attachment: float  # j_y j_x² (m³)
+    bulk: float  # 1 / (j_y j_x²) (1/m³)
+
+    @classmethod
+    def from_geometry(cls, g: Geometry) -> Lever:
+        z_load = g.z_incus + g.incus_length_m / 2
+        bx, by, L = g.pedicle_x_m, g.pedicle_y_m, g.pedicle_length_m
+        inertia = by * bx**3 / 12
+        d_mid = z_load - (g.z_pedicle + g.z_incus) / 2
+        punch = bx**2 * by
+        jx, jy, t = g.joint_x_m, g.joint_y_m, g.gap_thickness_m
+        tc = g.capsule_thickness_m
+        free = g.gap_thickness_m + 2 * (g.capsule_reach_m - g.capsule_bond_m)
+        wall = (jy + 2 * tc) * tc
+        r = jx / 2 + tc / 2
+        return cls(
+            force_per_pa=g.incus_y_m * g.incus_length_m,
+            beam=L * d_mid / inertia,
+            root=(z_load - g.z_pedicle) / punch,
+            top=(z_load - g.z_incus) / punch,
+            joint_arm=z_load - (g.z_gap + g.z_plate) / 2,
+            gap=jy * jx**3 / (12 * t),
+            capsule=2 * wall * r**2 / free,
+            attachment=jy * jx**2,
+            bulk=1 / (jy * jx**2),
+        )
+
+
+def equations(E, factors, lever: Lever):
+    """α and β per pascal (rad/Pa) from moduli ``E`` (Pa) and the calibrated factors.
+
+    Plain arithmetic only, so that ``E`` and ``factors`` may be floats, numpy
+    arrays (broadcast) or CasADi symbols alike.
+
+    Parameters
+    ----------
+    E : mapping with the keys of :data:`MODULI`
+    factors : sequence of the factors in :data:`FACTOR_NAMES` order
+    lever : geometric constants
+    """
+    f_beam, f_root, f_top, f_fdn, f_gap, f_cap, f_att_p, f_att_s, f_plate, f_stapes = (
+        factors[i] for i in range(len(FACTOR_NAMES))
+    )
+    P = lever.force_per_pa
+    e_gap, e_plate, e_stapes = E["gap_e_pa"], E["plate_e_pa"], E["stapes_e_pa"]
+    foundation = 1 + f_fdn * (1e3 * e_gap / e_plate) ** 0.25
+    beta = P * (
+        f_beam * lever.beam / E["pedicle_e_pa"]
+        + f_root * lever.root / e_plate / foundation
+        + f_top * lever.top / E["incus_e_pa"]
+    )
+    k_gap = f_gap * lever.gap * e_gap
+    k_cap = 1 / (
+        1 / (f_cap * lever.capsule * E["capsule_e_pa"])
+        + 1 / (f_att_p * lever.attachment * e_plate**0.75 * E["capsule_e_pa"] ** 0.25)
+        + 1 / (f_att_s * lever.attachment * e_stapes)
+    )
+    bulk = lever.bulk * (f_plate / e_plate + f_stapes / e_stapes)
+    alpha = P * lever.joint_arm * (1 / (k_gap + k_cap) + bulk)
+    return alpha, beta
+
+
+@dataclass(frozen=True)
+class StaticResponse:
+    """Lumped static response (arrays over designs; SI)."""
+
+    alpha_rad: np.ndarray
+    beta_rad: np.ndarray
+
+    @property
+    def sum_rad(self) -> np.ndarray:
+        return self.alpha_rad + self.beta_rad
+
+    @property
+    def ratio(self) -> np.ndarray:
+        return self.beta_rad / self.alpha_rad
+
+
+def moduli_arrays(designs=None, **moduli) -> dict[str, np.ndarray]:
+    """Moduli (Pa) as broadcastable arrays, defaults from :class:`Materials` for missing ones."""
+    base = Materials()
+    src = dict(designs or {}, **moduli)
+    out = {}
+    for k in MODULI:
+        v = np.asarray(src.get(k, getattr(base, k)), dtype=float)
+        if np.any(~np.isfinite(v)) or np.any(v <= 0):
+            from isj.design import InvalidParameter
+
+            raise InvalidParameter(f"{k}: every value must be a finite number > 0 (Pa)")
+        out[k] = v
+    return out
+
+
+def static_response(
+    factors, geometry: Geometry | None = None, pressure_pa: float = DEFAULT_PRESSURE_PA, **moduli
+) -> StaticResponse:
+    """α and β (rad) for arrays of moduli (Pa), vectorised over designs."""
+    lever = Lever.from_geometry(geometry or Geometry())
+    a, b = equations(moduli_arrays(**moduli), np.asarray(factors, dtype=float), lever)
+    return StaticResponse(alpha_rad=a * pressure_pa, beta_rad=b * pressure_pa)
