@@ -22,9 +22,9 @@ from lumped.artifact import default_calibration
 from lumped.model import static_response
 
 
-def _trend(a, b, i, threshold=1e-3):
-    """Sign of case i's change of α and β from the base case (0 below the threshold)."""
-    rel = np.array([a[i] / a[0] - 1, b[i] / b[0] - 1])
+def _trend(a, b, i, threshold):
+    """Sign of case i's change of α, β and β/α from the base case (0 below the threshold)."""
+    rel = np.array([a[i] / a[0] - 1, b[i] / b[0] - 1, (b[i] / a[i]) / (b[0] / a[0]) - 1])
     return np.sign(rel) * (np.abs(rel) > threshold)
 
 
@@ -53,11 +53,10 @@ def main():
     print(
         f"{'case':7} {'FE alpha':>9} {'lumped':>9} {'err':>7} {'FE beta':>9} {'lumped':>9} {'err':>7} trend"
     )
-    same = 0
+    same = strict = 0
     for i, c in enumerate(THESIS_CASES):
-        trend_fe = _trend(fe_a, fe_b, i)
-        trend_l = _trend(lum.alpha_rad, lum.beta_rad, i)
-        ok = bool(np.all(trend_fe == trend_l))
+        ok = bool(np.all(_trend(fe_a, fe_b, i, 1e-2) == _trend(lum.alpha_rad, lum.beta_rad, i, 1e-2)))
+        strict += bool(np.all(_trend(fe_a, fe_b, i, 1e-3) == _trend(lum.alpha_rad, lum.beta_rad, i, 1e-3)))
         same += ok
         la, lb = lum.alpha_rad[i], lum.beta_rad[i]
         print(
@@ -66,7 +65,10 @@ def main():
             f"{'same' if ok else 'DIFFERENT'}"
         )
     print(
-        f"trends (sign of the change of alpha and beta from the base case, > 0.1 %): {same}/7 cases identical"
+        f"trends (sign of each case's change of alpha, beta and beta/alpha from the base case): "
+        f"{same}/7 cases identical counting changes > 1 %, {strict}/7 counting changes > 0.1 % "
+        "(the lumped model has no coupling of beta to the capsule or of alpha to the pedicle, which "
+        "move FE by < 0.5 %)"
     )
 
 
