@@ -67,3 +67,29 @@ def write_model_vtu(path, model, result) -> Path:
             "strain_energy_density_j_m3": model.strain_energy_density(result),
         },
     )
+
+
+def write_pvd(path, files: list[str], times: list[float]) -> Path:
+    """A ParaView collection (.pvd) indexing a sequence of VTU files (e.g. modes by frequency)."""
+    rows = "\n".join(
+        f'    <DataSet timestep="{t:.9g}" group="" part="0" file="{f}"/>'
+        for f, t in zip(files, times, strict=True)
+    )
+    text = (
+        '<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">\n  <Collection>\n'
+        f"{rows}\n  </Collection>\n</VTKFile>\n"
+    )
+    return atomic_write_text(path, text)
+
+
+def write_modes(directory, model, freq_hz, shapes) -> Path:
+    """One VTU per mode (``mode_01.vtu``, ...) and ``modes.pvd`` with the frequency (Hz) as time."""
+    directory = Path(directory)
+    names = []
+    for i in range(shapes.shape[1]):
+        name = f"mode_{i + 1:02d}.vtu"
+        write_vtu(
+            directory / name, model.space, shapes[:, i], {"region_id": model.space.region.astype(np.int32)}
+        )
+        names.append(name)
+    return write_pvd(directory / "modes.pvd", names, list(map(float, freq_hz)))

@@ -75,52 +75,27 @@ class StaticResult:
         }
 
 
-class PedicleJointModel:
-    """Meshed and assembled pedicle-and-joint model (spec §2).
+class ElasticModel:
+    """Linear elasticity on a meshed body: assembled once, solved for any moduli.
 
     Parameters
     ----------
-    geometry : dimensions (m)
+    mesh : fem.mesh.TetMesh with a face named ``clamped``
     order : 1 or 2 (P1 or P2 tetrahedra)
-    resolution : refinement factor of every element size (2 halves them)
-    sizes : per-region element sizes, ``fem.geometry.MeshSizes`` (default: graded)
     solver : sparse solver backend, see ``fem.solvers`` ("auto" = fastest here)
-    cache_dir : mesh cache folder; None = default, False = no cache
-    mesh : a ready ``TetMesh`` (skips meshing; for tests)
     """
 
-    def __init__(
-        self,
-        geometry: Geometry | None = None,
-        order: int = 2,
-        resolution: float = 1.0,
-        sizes=None,
-        solver: str = "auto",
-        cache_dir=None,
-        mesh=None,
-    ):
+    def __init__(self, mesh, order: int = 2, solver: str = "auto", clamped: str = "clamped"):
         if order not in (1, 2):
             raise ValueError(f"order = {order!r}: must be 1 or 2")
-        self.geometry = geometry or Geometry()
-        self.order = order
-        self.timings_s: dict[str, float] = {}
-        t0 = time.perf_counter()
-        if mesh is None:
-            from .mesh import mesh_pedicle_joint
-
-            mesh = mesh_pedicle_joint(self.geometry, resolution=resolution, sizes=sizes, cache_dir=cache_dir)
         self.mesh = mesh
-        t1 = time.perf_counter()
+        self.order = order
         self.space = build_space(mesh, order)
         self.pattern = build_pattern(self.space)
         self.regions = assemble_regions(self.space, self.pattern)
         self._mass_ready = False
-        self.reduction = Reduction.build(self.pattern, clamped_dofs(self.space, "clamped"))
-        # the −x face of the incus, pushed in +x; unit pressure, scaled per case
-        self.unit_load = pressure_load(self.space, "loaded", 1.0, (1.0, 0.0, 0.0))
-        self.angles = angle_operator(self.space, self.geometry)
-        t2 = time.perf_counter()
-        self.timings_s.update(mesh=t1 - t0, assembly=t2 - t1)
+        self.reduction = Reduction.build(self.pattern, clamped_dofs(self.space, clamped))
+        self.timings_s: dict[str, float] = {}
         self._solver = None
         self._solver_name = solver
 
@@ -151,8 +126,8 @@ class PedicleJointModel:
         coef = {r: (materials.density(r), 0.0) for r in self.regions}
         return combine(self.pattern, self.regions, coef, part="mass")
 
-    def displacement(self, materials: Materials, pressure_pa: float) -> np.ndarray:
-        """Full dof vector of the static displacement (m)."""
+    def solve_load(self, materials: Materials, load: np.ndarray) -> np.ndarray:
+        """Full dof vector of the static displacement (m) under nodal forces ``load`` (N)."""
         K = self.stiffness(materials)
         t0 = time.perf_counter()
         if self._solver is None:
@@ -160,10 +135,55 @@ class PedicleJointModel:
         t1 = time.perf_counter()
         self._solver.factor(K)
         t2 = time.perf_counter()
-        u = self._solver.solve(self.reduction.restrict(self.unit_load))
+        u = self._solver.solve(self.reduction.restrict(load))
         t3 = time.perf_counter()
         self.timings_s.update(analyse=t1 - t0, factor=t2 - t1, solve=t3 - t2)
-        return self.reduction.expand(np.ravel(u)) * pressure_pa
+        return self.reduction.expand(np.ravel(u))
+
+
+class PedicleJointModel(ElasticModel):
+    """Meshed and assembled pedicle-and-joint model (spec §2).
+
+    Parameters
+    ----------
+    geometry : dimensions (m)
+    order : 1 or 2 (P1 or P2 tetrahedra)
+    resolution : refinement factor of every element size (2 halves them)
+    sizes : per-region element sizes, ``fem.geometry.MeshSizes`` (default: graded)
+    solver : sparse solver backend, see ``fem.solvers`` ("auto" = fastest here)
+    cache_dir : mesh cache folder; None = default, False = no cache
+    mesh : a ready ``TetMesh`` (skips meshing; for tests)
+    """
+
+    def __init__(
+        self,
+        geometry: Geometry | None = None,
+        order: int = 2,
+        resolution: float = 1.0,
+        sizes=None,
+        solver: str = "auto",
+        cache_dir=None,
+        mesh=None,
+    ):
+        if order not in (1, 2):
+            raise ValueError(f"order = {order!r}: must be 1 or 2")
+        self.geometry = geometry or Geometry()
+        t0 = time.perf_counter()
+        if mesh is None:
+            from .mesh import mesh_pedicle_joint
+
+            mesh = mesh_pedicle_joint(self.geometry, resolution=resolution, sizes=sizes, cache_dir=cache_dir)
+        t1 = time.perf_counter()
+        super().__init__(mesh, order, solver)
+        # the −x face of the incus, pushed in +x; unit pressure, scaled per case
+        self.unit_load = pressure_load(self.space, "loaded", 1.0, (1.0, 0.0, 0.0))
+        self.angles = angle_operator(self.space, self.geometry)
+        t2 = time.perf_counter()
+        self.timings_s.update(mesh=t1 - t0, assembly=t2 - t1)
+
+    def displacement(self, materials: Materials, pressure_pa: float) -> np.ndarray:
+        """Full dof vector of the static displacement (m)."""
+        return self.solve_load(materials, self.unit_load) * pressure_pa
 
     @property
     def solver_name(self) -> str:

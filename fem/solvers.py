@@ -69,13 +69,14 @@ class PardisoSolver:
     """MKL PARDISO, real symmetric positive definite (mtype 2), analysis reused."""
 
     name = "pardiso"
+    mtype = 2
 
     def __init__(self, A: sp.csr_matrix):
         import pypardiso
 
         self._upper = _Upper(A)
         # a fresh solver object per pattern: pypardiso's own spsolve caches by hash
-        self._ps = pypardiso.PyPardisoSolver(mtype=2)
+        self._ps = pypardiso.PyPardisoSolver(mtype=self.mtype)
         self._U = self._upper(A)
         self._ps.set_phase(11)  # ordering and symbolic factorization, once
         self._ps._call_pardiso(self._U, np.zeros((A.shape[0], 1)))
@@ -95,6 +96,13 @@ class PardisoSolver:
             self._ps.free_memory(everything=True)
         except Exception:
             pass
+
+
+class PardisoIndefiniteSolver(PardisoSolver):
+    """MKL PARDISO, real symmetric indefinite (mtype −2): dynamic stiffness K − ω²M."""
+
+    name = "pardiso_indefinite"
+    mtype = -2
 
 
 class CholmodSolver:
@@ -130,6 +138,15 @@ class SuperLUSolver:
 
 
 _CLASSES = {"pardiso": PardisoSolver, "cholmod": CholmodSolver, "superlu": SuperLUSolver}
+
+
+def make_indefinite_solver(A: sp.csr_matrix):
+    """A solver for a real symmetric indefinite matrix (PARDISO mtype −2, else SuperLU)."""
+    A = sp.csr_matrix(A)
+    A.sort_indices()
+    if "pardiso" in available_backends():
+        return PardisoIndefiniteSolver(A)
+    return SuperLUSolver(A)
 
 
 def make_solver(A: sp.csr_matrix, backend: str = "auto"):

@@ -288,6 +288,43 @@ def _cmd_convergence(args) -> int:
     return 0
 
 
+def _cmd_modes(args) -> int:
+    from fem.dynamics import modes
+    from fem.export import write_modes
+    from fem.model import PedicleJointModel
+
+    if args.n < 1 or args.n > 100:
+        raise UsageError(f"--n = {args.n}: must be between 1 and 100")
+    out_dir = Path(args.vtu_dir) if args.vtu_dir else None
+    if out_dir is not None and out_dir.exists() and not out_dir.is_dir():
+        raise UsageError(f"--vtu-dir = {args.vtu_dir!r}: exists and is not a directory")
+    materials = _materials(args)
+    t0 = time.perf_counter()
+    model = PedicleJointModel(_geometry(args), args.order, args.resolution, solver=args.solver)
+    freq_hz, shapes = modes(model, materials, args.n)
+    elapsed = time.perf_counter() - t0
+    if out_dir is not None:
+        write_modes(out_dir, model, freq_hz, shapes)
+    if args.json:
+        print(
+            json.dumps(
+                {
+                    "freq_hz": [float(f) for f in freq_hz],
+                    "n_dofs": model.n_dofs,
+                    "n_tets": model.n_tets,
+                    "time_s": elapsed,
+                }
+            )
+        )
+        return 0
+    print(f"lowest {args.n} natural frequencies (P{args.order}, {model.n_dofs} dofs, {elapsed:.1f} s):")
+    for i, f in enumerate(freq_hz, 1):
+        print(f"  mode {i}: {f:10.1f} Hz")
+    if out_dir is not None:
+        print(f"wrote {out_dir / 'modes.pvd'} and {args.n} VTU files")
+    return 0
+
+
 def _cmd_mesh(args) -> int:
     from fem.model import PedicleJointModel
     from fem.quality import mesh_quality, rcm_bandwidth
@@ -631,6 +668,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--resolution", metavar="R", type=_float("--resolution", lo=0.0), default=1.0)
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=_cmd_explore)
+
+    p = fsub.add_parser("modes", help="lowest natural frequencies and mode shapes (spec 4)")
+    _add_design_options(p)
+    _add_mesh_options(p)
+    p.add_argument("--n", type=int, default=6, help="number of modes (default 6)")
+    p.add_argument("--vtu-dir", metavar="DIR", help="write mode shapes (VTU + modes.pvd)")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=_cmd_modes)
 
     p = fsub.add_parser("mesh", help="mesh quality and stiffness bandwidth (thesis 6.5)")
     _add_mesh_options(p)

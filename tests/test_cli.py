@@ -113,3 +113,16 @@ def test_geometry_option_changes_the_model(capsys):
         capsys, ["fem", "solve", "--json", "--order", "1", *COARSE, "--geometry", "pedicle_x_m=80e-6"]
     )
     assert json.loads(out2)["beta_rad"] < json.loads(out1)["beta_rad"]  # a thicker pedicle bends less
+
+
+def test_modes_json_and_vtu(capsys, tmp_path):
+    code, out, _ = run(
+        capsys,
+        ["fem", "modes", "--json", "--order", "1", *COARSE, "--n", "3", "--vtu-dir", str(tmp_path / "modes")],
+    )
+    assert code == 0
+    f = json.loads(out)["freq_hz"]
+    assert len(f) == 3 and 0 < f[0] <= f[1] <= f[2]
+    assert (tmp_path / "modes" / "modes.pvd").exists() and (tmp_path / "modes" / "mode_03.vtu").exists()
+    code, _, err = run(capsys, ["fem", "modes", "--n", "0"])
+    assert code == 2 and "--n" in err
