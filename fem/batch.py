@@ -15,6 +15,8 @@ import threading
 from collections.abc import Mapping
 from pathlib import Path
 
+import numpy as np
+
 from isj.design import DEFAULT_PRESSURE_PA, REGIONS, Geometry, InvalidParameter, Materials, check_pressure
 
 from .model import PedicleJointModel
@@ -169,5 +171,42 @@ def evaluate_design(design: Mapping, settings: Mapping) -> dict:
         "max_disp_m": float(res.max_disp_m),
         "strain_energy_j": {str(k): float(v) for k, v in res.strain_energy_j.items()},
         "n_dofs": n_dofs,
+        "mesh_hash": mesh_hash,
+    }
+
+
+def evaluate_modes(design: Mapping, settings: Mapping) -> dict:
+    """Lowest in-plane natural frequencies (Hz) of one design: the modes the x load excites.
+
+    ``settings`` as for :func:`evaluate_design` plus ``n_modes`` (modes computed,
+    default 6). A mode counts as in-plane when its participation |φ·f| in the
+    pressure load is above 1e-3 of the largest among the computed modes
+    (the y-bending and torsion modes are orthogonal to the load by symmetry).
+
+    Returns
+    -------
+    dict
+        ``freq_hz`` (all computed), ``in_plane_freq_hz``, ``mesh_hash``.
+    """
+    from .dynamics import modes
+
+    s = dict(settings)
+    n = int(s.pop("n_modes", 6))
+    s.pop("kind", None)
+    unknown = set(s) - SETTINGS_KEYS
+    if unknown:
+        raise InvalidParameter(f"unknown settings {sorted(unknown)}; valid: {sorted(SETTINGS_KEYS)}")
+    geometry = _geometry(s.get("geometry"))
+    order, resolution = s.get("order", 2), s.get("resolution", 1.0)
+    _check_mesh(order, resolution)
+    materials = Materials(**{k: float(v) for k, v in design.items()})
+    with _LOCK:
+        model, mesh_hash = _model(geometry, int(order), float(resolution))
+        freq, shapes = modes(model, materials, n)
+        part = np.abs(model.unit_load @ shapes)
+    in_plane = freq[part > 1e-3 * part.max()]
+    return {
+        "freq_hz": [float(f) for f in freq],
+        "in_plane_freq_hz": [float(f) for f in in_plane],
         "mesh_hash": mesh_hash,
     }

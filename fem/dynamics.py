@@ -113,3 +113,18 @@ def _solve_complex(A: sp.csr_matrix, B: sp.csr_matrix, f: np.ndarray) -> np.ndar
         return xz[:n] - 1j * xz[n:]
     lu = spla.splu((A + 1j * B).tocsc())
     return lu.solve(f.astype(complex))
+
+
+def harmonic_outputs(
+    model,
+    freq_hz,
+    materials: Materials | None = None,
+    damping: Damping | None = None,
+    pressure_pa: float = DEFAULT_PRESSURE_PA,
+) -> dict[str, np.ndarray]:
+    """Complex α, β (rad, point pairs) and the incus face's mean u_x (m) at each frequency (Hz)."""
+    u = harmonic(model, freq_hz, materials, damping, pressure_pa)
+    w = model.unit_load.reshape(-1, 3)[:, 0]  # ∫ N_i dA on the loaded face: area weights
+    ux = u.reshape(u.shape[0], -1, 3)[:, :, 0] @ w / w.sum()
+    ang = model.angles[:2] @ u.T
+    return {"alpha_rad": ang[0], "beta_rad": ang[1], "incus_ux_m": ux}

@@ -325,6 +325,112 @@ def _cmd_modes(args) -> int:
     return 0
 
 
+def _cmd_sweep(args) -> int:
+    import numpy as np
+
+    from fem.dynamics import Damping, harmonic_outputs
+    from fem.export import atomic_write, atomic_write_text
+    from fem.model import PedicleJointModel
+    from lumped.dynamics import OUTPUTS, chain_model, frequency_response
+    from lumped.plots import save_bode
+
+    from .provenance import write_run_record
+
+    if not 0 < args.fmin_hz < args.fmax_hz:
+        raise UsageError(f"--fmin-hz/--fmax-hz = {args.fmin_hz:g}/{args.fmax_hz:g}: need 0 < fmin < fmax")
+    if args.n < 2 or args.n > 100_000 or args.fe_checks < 0 or args.fe_checks > 50:
+        raise UsageError("--n: must be in [2, 100000]; --fe-checks: must be in [0, 50]")
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise UsageError(f"--out = {args.out!r}: exists and is not a directory")
+    cal = _load_calibration(args.calibration)
+    m = _materials(args)
+    designs = {f"{r}_e_pa": getattr(m, f"{r}_e_pa") for r in _MODULUS_OPTIONS}
+    _warn_outside(cal, designs)
+    damping = Damping(args.rayleigh_a, args.rayleigh_b, args.loss_factor)
+    freq = np.geomspace(args.fmin_hz, args.fmax_hz, args.n)
+    model = chain_model(
+        cal.factor_array(),
+        cal.dynamics.get("hinge_fraction", 1 / 3),
+        materials=m,
+        rayleigh_a_per_s=damping.rayleigh_a_per_s,
+        rayleigh_b_s=damping.rayleigh_b_s,
+        loss_factor=damping.loss_factor,
+        **designs,
+    )
+    H = frequency_response(model, freq, args.pressure)  # (n_freq, 3)
+    fe_freq = np.geomspace(args.fmin_hz, args.fmax_hz, args.fe_checks + 2)[1:-1] if args.fe_checks else []
+    checks = []
+    if len(fe_freq):
+        _warn_fe_settings(cal, args.order, args.resolution)
+        fem_model = PedicleJointModel(_geometry(args), args.order, args.resolution, solver=args.solver)
+        fe = harmonic_outputs(fem_model, fe_freq, m, damping, args.pressure)
+        lum = frequency_response(model, fe_freq, args.pressure)
+        for i, f in enumerate(fe_freq):
+            errs = {k: float(abs(lum[i, j] / fe[k][i] - 1)) for j, k in enumerate(OUTPUTS[:2])}
+            checks.append(
+                {
+                    "freq_hz": float(f),
+                    **{f"fe_{k}": [float(fe[k][i].real), float(fe[k][i].imag)] for k in OUTPUTS[:2]},
+                    **{f"{k}_rel_error": e for k, e in errs.items()},
+                    "passed": max(errs.values()) <= args.tolerance,
+                }
+            )
+    poles_hz, zeta = model.poles()
+    header = "freq_hz," + ",".join(f"{k}_re,{k}_im,{k}_abs,{k}_phase_deg" for k in OUTPUTS)
+    cols = [freq]
+    for j in range(len(OUTPUTS)):
+        h = H[:, j]
+        cols += [h.real, h.imag, np.abs(h), np.degrees(np.unwrap(np.angle(h)))]
+    table = np.column_stack(cols)
+    units = (
+        "# units: freq_hz Hz; alpha_rad, beta_rad rad; incus_ux_m m; phase deg; pressure "
+        f"{args.pressure:g} Pa\n"
+    )
+    atomic_write_text(
+        out / "sweep.csv",
+        units + header + "\n" + "\n".join(",".join(f"{v:.9g}" for v in row) for row in table) + "\n",
+    )
+    atomic_write(
+        out / "sweep.npz",
+        lambda tmp: np.savez(
+            open(tmp, "wb"),
+            freq_hz=freq,
+            response=H,
+            outputs=np.array(OUTPUTS),
+            fe_freq_hz=np.asarray(fe_freq),
+            units=np.array("freq_hz: Hz; alpha_rad, beta_rad: rad; incus_ux_m: m"),
+        ),
+    )
+    save_bode(out / "bode.png", freq, H, checks)
+    summary = {
+        "n_freq": int(args.n),
+        "natural_freq_hz": [float(v) for v in poles_hz],
+        "damping_ratio": [float(v) for v in zeta],
+        "fe_checks": checks,
+        "passed": all(c["passed"] for c in checks),
+        "tolerance": args.tolerance,
+    }
+    write_run_record(out / "sweep.json", args, summary)
+    if args.json:
+        print(json.dumps(summary))
+    else:
+        print(
+            f"lumped sweep {args.fmin_hz:g}-{args.fmax_hz:g} Hz ({args.n} points); natural frequencies "
+            + ", ".join(f"{v:.0f} Hz (zeta {z:.2f})" for v, z in zip(poles_hz, zeta, strict=True))
+        )
+        for c in checks:
+            print(
+                f"  FE check at {c['freq_hz']:.0f} Hz: alpha {100 * c['alpha_rad_rel_error']:.2f} %, "
+                f"beta {100 * c['beta_rad_rel_error']:.2f} % {'ok' if c['passed'] else 'EXCEEDS tolerance'}"
+            )
+        print(f"wrote {out}/sweep.csv, sweep.npz, bode.png, sweep.json")
+    if not summary["passed"]:
+        print(f"isj: error: an FE check exceeds the tolerance {args.tolerance:g}", file=sys.stderr)
+        return 1
+    return 0
+
+
 def _cmd_mesh(args) -> int:
     from fem.model import PedicleJointModel
     from fem.quality import mesh_quality, rcm_bandwidth
@@ -390,6 +496,17 @@ def _warn_outside(cal, designs: dict) -> int:
     return n_out
 
 
+def _warn_fe_settings(cal, order: int, resolution: float) -> None:
+    fs = cal.fe_settings
+    if fs and (fs.get("order") != order or fs.get("resolution") != resolution):
+        print(
+            f"isj: warning: FE checks run at order {order}, resolution {resolution:g}; the calibration "
+            f"was fitted to order {fs.get('order')}, resolution {fs.get('resolution')}: their "
+            "discretisation errors differ",
+            file=sys.stderr,
+        )
+
+
 def _cmd_lumped_solve(args) -> int:
     from lumped.model import static_response
 
@@ -426,13 +543,15 @@ def _cmd_lumped_solve(args) -> int:
 
 
 def _cmd_calibrate(args) -> int:
-    from calibration.pipeline import calibrate
-    from fem.batch import evaluate_design, fe_settings
+    from calibration.pipeline import calibrate, calibrate_dynamics
+    from fem.batch import evaluate_design, evaluate_modes, fe_settings
     from fem.export import atomic_write_text
 
     out = Path(args.out)
     if out.suffix.lower() != ".json" or out.is_dir():
         raise UsageError(f"--out = {args.out!r}: must be a file ending in .json")
+    if args.samples < 16 or args.validation < 0 or args.modal_samples < 0:
+        raise UsageError("--samples: must be >= 16 (ten factors); --validation, --modal-samples: >= 0")
     settings = fe_settings(order=args.order, resolution=args.resolution)
     cal = calibrate(
         evaluate_design,
@@ -444,6 +563,17 @@ def _cmd_calibrate(args) -> int:
         scheduler=args.scheduler,
         progress=not args.quiet,
     )
+    if args.modal_samples:
+        cal = calibrate_dynamics(
+            cal,
+            evaluate_modes,
+            settings,
+            _fe_cache_dir(args.cache),
+            samples=args.modal_samples,
+            validation=max(args.modal_samples // 2, 2),
+            seed=args.seed + 100,
+            progress=not args.quiet,
+        )
     atomic_write_text(out, cal.to_json())
     t, v = cal.training, cal.validation
     print(
@@ -455,6 +585,13 @@ def _cmd_calibrate(args) -> int:
             f"validated on {v['n']} unseen FE designs: max error alpha {100 * v['max_alpha']:.2f} %, "
             f"beta {100 * v['max_beta']:.2f} %, beta/alpha {100 * v['max_ratio']:.2f} % "
             f"(RMS {100 * v['rms_alpha']:.2f} / {100 * v['rms_beta']:.2f} / {100 * v['rms_ratio']:.2f} %)"
+        )
+    if cal.dynamics:
+        dv = cal.dynamics.get("validation", cal.dynamics["training"])
+        print(
+            f"chain model hinge fraction {cal.dynamics['hinge_fraction']:.3f}: first in-plane natural "
+            f"frequency within {100 * dv['max_f1']:.1f} % of FE on {dv['n']} held-out designs "
+            f"(second: {100 * dv.get('max_f2', float('nan')):.0f} %)"
         )
     print(f"wrote {out}")
     return 0
@@ -523,6 +660,7 @@ def _cmd_explore(args) -> int:
     picks = picks[: args.spot_checks]
     checks = []
     if picks:
+        _warn_fe_settings(cal, args.order, args.resolution)
         fe_designs = [{k: float(v[i]) for k, v in designs.items()} for i in picks]
         settings = fe_settings(order=args.order, resolution=args.resolution, pressure_pa=args.pressure)
         records = run_designs(
@@ -638,6 +776,12 @@ def build_parser() -> argparse.ArgumentParser:
         default=1.0,
         help="FE mesh resolution (default 1)",
     )
+    p.add_argument(
+        "--modal-samples",
+        type=int,
+        default=16,
+        help="FE modal analyses for the dynamic chain's hinge (default 16; 0 = skip)",
+    )
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=_cmd_calibrate)
 
@@ -676,6 +820,44 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--vtu-dir", metavar="DIR", help="write mode shapes (VTU + modes.pvd)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=_cmd_modes)
+
+    p = sub.add_parser("sweep", help="damped frequency response: lumped curves, FE spot checks (spec 4)")
+    _add_design_options(p)
+    _add_mesh_options(p)
+    p.add_argument("--fmin-hz", type=_float("--fmin-hz", lo=0.0), default=100.0, help="lowest frequency (Hz)")
+    p.add_argument("--fmax-hz", type=_float("--fmax-hz", lo=0.0), default=20e3, help="highest frequency (Hz)")
+    p.add_argument("--n", type=int, default=200, help="frequencies, log-spaced (default 200)")
+    p.add_argument("--fe-checks", type=int, default=2, help="FE harmonic spot checks K (default 2)")
+    p.add_argument(
+        "--tolerance",
+        type=_float("--tolerance", lo=0.0),
+        default=0.05,
+        help="largest relative error of an FE check (default 0.05)",
+    )
+    p.add_argument(
+        "--rayleigh-a",
+        metavar="PER_S",
+        type=_float("--rayleigh-a", lo=0.0, lo_open=False),
+        default=0.0,
+        help="Rayleigh mass coefficient a (1/s; default 0)",
+    )
+    p.add_argument(
+        "--rayleigh-b",
+        metavar="S",
+        type=_float("--rayleigh-b", lo=0.0, lo_open=False),
+        default=1e-4,
+        help="Rayleigh stiffness coefficient b (s; default 1e-4)",
+    )
+    p.add_argument(
+        "--loss-factor",
+        type=_float("--loss-factor", lo=0.0, lo_open=False),
+        default=0.0,
+        help="structural loss factor eta (default 0)",
+    )
+    p.add_argument("--calibration", metavar="PATH", help="calibration file (default: the shipped one)")
+    p.add_argument("--out", metavar="DIR", default="sweep", help="output folder (default ./sweep)")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=_cmd_sweep)
 
     p = fsub.add_parser("mesh", help="mesh quality and stiffness bandwidth (thesis 6.5)")
     _add_mesh_options(p)

@@ -40,7 +40,7 @@ def git_revision() -> str | None:
 
 def write_run_record(path, args, results: dict) -> Path:
     """Write ``path`` (JSON, atomically): resolved options, versions, results."""
-    from fem.export import atomic_write_json
+    from .atomic import atomic_write_json
 
     config = {k: v for k, v in vars(args).items() if k != "func"}
     record = {

@@ -39,6 +39,7 @@ class Calibration:
     validation: dict = field(default_factory=dict)
     fe_settings: dict = field(default_factory=dict)
     provenance: dict = field(default_factory=dict)
+    dynamics: dict = field(default_factory=dict)
     format: int = FORMAT_VERSION
 
     def factor_array(self) -> np.ndarray:
@@ -79,6 +80,7 @@ class Calibration:
             validation=dict(d.get("validation", {})),
             fe_settings=dict(d.get("fe_settings", {})),
             provenance=dict(d.get("provenance", {})),
+            dynamics=dict(d.get("dynamics", {})),
         )
 
     @classmethod

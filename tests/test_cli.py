@@ -126,3 +126,23 @@ def test_modes_json_and_vtu(capsys, tmp_path):
     assert (tmp_path / "modes" / "modes.pvd").exists() and (tmp_path / "modes" / "mode_03.vtu").exists()
     code, _, err = run(capsys, ["fem", "modes", "--n", "0"])
     assert code == 2 and "--n" in err
+
+
+def test_sweep_writes_csv_npz_plot_and_guards(capsys, tmp_path):
+    np = pytest.importorskip("numpy")
+    out = tmp_path / "sw"
+    argv = ["sweep", "--out", str(out), "--n", "50", "--fe-checks", "1", "--order", "1", *COARSE, "--json"]
+    code, text, err = run(capsys, argv + ["--tolerance", "50"])  # P1 coarse: far from the calibration
+    assert code == 0 and "warning: FE checks run at order 1" in err
+    summary = json.loads(text)
+    assert summary["passed"] and len(summary["fe_checks"]) == 1
+    lines = (out / "sweep.csv").read_text().splitlines()
+    assert lines[0].startswith("# units: freq_hz Hz") and len(lines) == 52
+    data = np.load(out / "sweep.npz")
+    assert data["response"].shape == (50, 3) and (out / "bode.png").stat().st_size > 10_000
+    code, _, err = run(capsys, argv + ["--tolerance", "1e-9"])
+    assert code == 1 and "exceeds the tolerance" in err
+    code, _, err = run(
+        capsys, ["sweep", "--fmin-hz", "5000", "--fmax-hz", "100", "--out", str(tmp_path / "x")]
+    )
+    assert code == 2 and "--fmin-hz" in err and not (tmp_path / "x").exists()
