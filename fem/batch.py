@@ -15,8 +15,6 @@ import threading
 from collections.abc import Mapping
 from pathlib import Path
 
-import numpy as np
-
 from isj.design import DEFAULT_PRESSURE_PA, REGIONS, Geometry, InvalidParameter, Materials, check_pressure
 
 from .model import PedicleJointModel
@@ -179,9 +177,9 @@ def evaluate_modes(design: Mapping, settings: Mapping) -> dict:
     """Lowest in-plane natural frequencies (Hz) of one design: the modes the x load excites.
 
     ``settings`` as for :func:`evaluate_design` plus ``n_modes`` (modes computed,
-    default 6). A mode counts as in-plane when its participation |φ·f| in the
-    pressure load is above 1e-3 of the largest among the computed modes
-    (the y-bending and torsion modes are orthogonal to the load by symmetry).
+    default 6). A mode counts as in-plane (x–z, the plane the load acts in) when
+    Σ u_y² < 0.05 Σ u_x² over its nodes: the y-bending and torsion modes, which
+    the x load does not excite by symmetry, fail that test.
 
     Returns
     -------
@@ -203,10 +201,12 @@ def evaluate_modes(design: Mapping, settings: Mapping) -> dict:
     with _LOCK:
         model, mesh_hash = _model(geometry, int(order), float(resolution))
         freq, shapes = modes(model, materials, n)
-        part = np.abs(model.unit_load @ shapes)
-    in_plane = freq[part > 1e-3 * part.max()]
+    u = shapes.reshape(-1, 3, shapes.shape[1])
+    y_fraction = (u[:, 1, :] ** 2).sum(axis=0) / (u[:, 0, :] ** 2).sum(axis=0)
+    in_plane = freq[y_fraction < 0.05]
     return {
         "freq_hz": [float(f) for f in freq],
         "in_plane_freq_hz": [float(f) for f in in_plane],
+        "y_to_x_fraction": [float(v) for v in y_fraction],
         "mesh_hash": mesh_hash,
     }
