@@ -20,10 +20,7 @@ import numpy as np
 
 from isj.design import Geometry, Materials
 
-from .assembly import assemble_regions, build_pattern, combine, lame_unit
-from .boundary import Reduction, clamped_dofs, traction_load
-from .solvers import make_solver
-from .space import build_space
+from .boundary import face_areas, traction_load
 
 #: Resolution ladders of the default study (P1 needs finer meshes).
 DEFAULT_RESOLUTIONS = {1: (1.0, 1.6, 2.5, 4.0, 6.0), 2: (0.7, 1.0, 1.6, 2.5, 4.0)}
@@ -48,37 +45,29 @@ def solve_cantilever(
     force_n: float,
     solver: str = "auto",
 ) -> dict:
-    """Solve a cantilever mesh (faces "clamped", "loaded") under a total shear force (N)."""
+    """Solve a cantilever mesh (region "pedicle", faces "clamped", "loaded") under a shear force (N)."""
+    import dataclasses
+
+    from .model import ElasticModel
+
     axis = "xyz".index(direction)
-    space = build_space(mesh, order)
-    pattern = build_pattern(space)
-    regions = assemble_regions(space, pattern)
-    lam, mu = lame_unit(nu)
-    data = combine(pattern, regions, {r: (youngs_pa * lam, youngs_pa * mu) for r in regions})
-    red = Reduction.build(pattern, clamped_dofs(space, "clamped"))
-    area = _face_area(space)
+    # one homogeneous body: its material is the pedicle's, whatever the mesh calls it
+    mesh = dataclasses.replace(mesh, region_names=("pedicle",), region=np.zeros_like(mesh.region))
+    model = ElasticModel(mesh, order, solver)
+    space = model.space
     traction = np.zeros(3)
-    traction[axis] = force_n / area
+    traction[axis] = force_n / face_areas(space, "loaded").sum()
     f = traction_load(space, "loaded", traction)
-    K = red.matrix(data)
-    s = make_solver(K, solver)
-    s.factor(K)
-    u = red.expand(np.ravel(s.solve(red.restrict(f)))).reshape(-1, 3)
+    u = model.solve_load(Materials(pedicle_e_pa=youngs_pa, nu=nu), f).reshape(-1, 3)
     tip = space.face_nodes("loaded")
     # mean over the face, area-weighted through the consistent load (∫ N_i dA)
     w = f.reshape(-1, 3)[tip, axis]
     return {
         "n_tets": int(space.n_tets),
-        "n_dofs": int(red.n_free),
+        "n_dofs": int(model.n_dofs),
         "max_disp_m": float(np.linalg.norm(u, axis=1).max()),
         "tip_mean_m": float(w @ u[tip, axis] / w.sum()),
     }
-
-
-def _face_area(space) -> float:
-    from .boundary import face_areas
-
-    return float(face_areas(space, "loaded").sum())
 
 
 def cantilever_study(
