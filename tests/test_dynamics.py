@@ -1,12 +1,17 @@
 """FE dynamics: cantilever frequencies against beam theory; harmonic response at low frequency."""
 
+import copy
+
 import numpy as np
 import pytest
+import scipy.sparse as sp
 
+from fem import dynamics
 from fem.boundary import traction_load
-from fem.dynamics import Damping, harmonic, modes
+from fem.dynamics import Damping, _shifted_lanczos, _solve_block, harmonic, modes
 from fem.mesh import TetMesh
 from fem.model import ElasticModel
+from fem.solvers import available_backends, make_complex_symmetric_solver, make_solver
 from fem.structured import box_mesh
 from isj.design import InvalidParameter, Materials
 
@@ -15,9 +20,9 @@ RHO, E = 2000.0, 5e9
 MAT = Materials(pedicle_e_pa=E, nu=0.0, bone_density_kg_m3=RHO)
 
 
-def cantilever(length, divisions, order=2):
+def cantilever(length, divisions, order=2, solver="auto"):
     m = box_mesh((B, H, length), divisions, origin_m=(-B / 2, -H / 2, 0), region_name="pedicle")
-    model = ElasticModel(TetMesh(m.points, m.tets, m.region, ("pedicle",), m.faces), order)
+    model = ElasticModel(TetMesh(m.points, m.tets, m.region, ("pedicle",), m.faces), order, solver)
     model.unit_load = traction_load(model.space, "loaded", [1.0, 0.0, 0.0])
     return model
 
@@ -62,8 +67,9 @@ def test_modes_are_mass_orthonormal():
     assert np.all(np.diff(f) > 0)
 
 
-def test_harmonic_far_below_resonance_is_static():
-    model = cantilever(5 * B, (1, 2, 5))
+@pytest.mark.parametrize("solver", ["auto", "superlu"])
+def test_harmonic_far_below_resonance_is_static(solver):
+    model = cantilever(5 * B, (1, 2, 5), solver=solver)
     u_static = model.solve_load(MAT, model.unit_load)
     u = harmonic(model, [1.0], MAT, Damping(rayleigh_b_s=0.0), pressure_pa=1.0)[0]
     assert np.allclose(u, u_static, rtol=0, atol=1e-8 * np.abs(u_static).max())
@@ -90,3 +96,125 @@ def test_bad_frequencies_are_refused(bad):
     model = cantilever(5 * B, (1, 1, 2), order=1)
     with pytest.raises(InvalidParameter, match="freq_hz"):
         harmonic(model, bad, MAT)
+
+
+needs_pardiso = pytest.mark.skipif("pardiso" not in available_backends(), reason="needs PARDISO (pypardiso)")
+
+
+def _complex_symmetric(n=60, seed=0):
+    """A sparse complex symmetric, non-Hermitian, indefinite real part: K(1 + 0.3i) − 2M, like K_dyn."""
+    rng = np.random.default_rng(seed)
+    R = sp.random(n, n, density=0.08, random_state=rng)
+    K = (R @ R.T + sp.identity(n)).tocsr()  # SPD
+    M = sp.diags(rng.uniform(0.5, 1.5, n)) + 0.1 * (R + R.T)
+    K, M = K + 0 * M, M + 0 * K  # one shared pattern
+    return (K * (1 + 0.3j) - 2.0 * M).tocsr(), K.tocsr()
+
+
+@needs_pardiso
+def test_complex_pardiso_matches_superlu_and_dense():
+    Z, K = _complex_symmetric()
+    assert abs(Z - Z.T).max() == 0 and abs(Z - Z.conj().T).max() > 0
+    b = np.random.default_rng(1).normal(size=(Z.shape[0], 2)) + 1j
+    exact = np.linalg.solve(Z.toarray(), b)
+    xs = []
+    for backend, perm in (("auto", None), ("superlu", None), ("auto", make_solver(K, "pardiso").perm)):
+        s = make_complex_symmetric_solver(Z, backend, perm)
+        s.factor(Z)
+        x = s.solve(b)
+        s.free()
+        assert x.shape == b.shape and np.iscomplexobj(x)
+        assert np.linalg.norm(x - exact) < 1e-12 * np.linalg.norm(exact)
+        xs.append(x)
+    assert np.linalg.norm(xs[0] - xs[1]) < 1e-12 * np.linalg.norm(xs[1])
+    assert np.linalg.norm(xs[0] - xs[2]) < 1e-12 * np.linalg.norm(xs[0])  # with the static ordering
+
+
+@needs_pardiso
+@pytest.mark.parametrize("damping", [Damping(), Damping(50.0, 0.0, 0.05), Damping(0.0, 0.0, 0.0)])
+def test_harmonic_matches_the_block_solve(coarse_model, damping):
+    """Lanczos (the default) and complex-symmetric PARDISO against the real 2n × 2n block system."""
+    m = Materials(pedicle_e_pa=3e9)
+    freqs = [100.0, 20e3]  # the coarse model's first resonance is near 20 kHz
+    u = harmonic(coarse_model, freqs, m, damping, pressure_pa=1.0)
+    u_direct = harmonic(coarse_model, freqs, m, damping, pressure_pa=1.0, method="direct")
+    red = coarse_model.reduction
+    K = coarse_model.stiffness(m)
+    M = red.matrix(coarse_model.mass_data(m))
+    f = red.restrict(coarse_model.unit_load)
+    for i, fr in enumerate(freqs):
+        w = 2 * np.pi * fr
+        A = K - w**2 * M
+        B = damping.loss_factor * K + w * (damping.rayleigh_a_per_s * M + damping.rayleigh_b_s * K)
+        ref = red.expand(_solve_block(A, B, f))
+        assert np.linalg.norm(u[i] - ref) < 1e-8 * np.linalg.norm(ref)  # measured ≤ 4e-10
+        assert np.linalg.norm(u_direct[i] - ref) < 1e-8 * np.linalg.norm(ref)
+
+
+def test_harmonic_superlu_fallback(coarse_model):
+    """``solver="superlu"`` (and machines without PARDISO) solve the complex matrix with SuperLU."""
+    m = Materials(pedicle_e_pa=3e9)
+    slu = copy.copy(coarse_model)  # same mesh and matrices, SuperLU asked for
+    slu._solver_name, slu._solver = "superlu", None
+    u_slu = harmonic(slu, [5e3], m, pressure_pa=1.0, method="direct")[0]
+    u = harmonic(coarse_model, [5e3], m, pressure_pa=1.0)[0]
+    assert np.linalg.norm(u - u_slu) < 1e-8 * np.linalg.norm(u_slu)  # measured 2e-10
+
+
+def test_shifted_lanczos_solves_every_shift():
+    """(I + c K⁻¹M) x = K⁻¹f for complex and real shifts, one Krylov space, against dense solves."""
+    rng = np.random.default_rng(2)
+    n = 40
+    Q = np.linalg.qr(rng.normal(size=(n, n)))[0]
+    K = Q @ np.diag(np.geomspace(1, 1e4, n)) @ Q.T  # SPD, spread spectrum
+    M = np.diag(rng.uniform(0.5, 2.0, n))
+    f = rng.normal(size=n)
+    c = np.array([0.0, -0.5 + 0.1j, -30.0 + 3.0j, -2e3 - 1e3j, 0.3])
+    x, ok, _ = _shifted_lanczos(lambda b: np.linalg.solve(K, b), sp.csr_matrix(M), f, c, tol=1e-12, kmax=n)
+    assert ok.all()
+    for j, cj in enumerate(c):
+        exact = np.linalg.solve(K + cj * M, f)
+        assert np.linalg.norm(x[j] - exact) < 1e-9 * np.linalg.norm(exact)
+
+
+@pytest.mark.parametrize("solver", ["auto", "superlu"])
+def test_harmonic_falls_back_to_direct(monkeypatch, solver):
+    """Frequencies where Lanczos does not converge are solved directly, with the same answer."""
+    model = cantilever(10 * B, (1, 2, 10), solver=solver)
+    freqs = [1e3, 4.6e4, 1e5]  # around the first bending frequency (4.62e4 Hz)
+    d = Damping(rayleigh_b_s=1e-7, loss_factor=0.01)
+    direct, solved = dynamics._direct, []
+
+    def spy(model, K, M, f, alpha, beta, damping):
+        solved.append(alpha.size)
+        return direct(model, K, M, f, alpha, beta, damping)
+
+    monkeypatch.setattr(dynamics, "_direct", spy)
+    u = harmonic(model, freqs, MAT, d, pressure_pa=1.0)
+    assert solved == []  # Lanczos converged everywhere, on resonance too
+    monkeypatch.setattr(dynamics, "KRYLOV_MAX_ITERATIONS", 1)
+    u_fallback = harmonic(model, freqs, MAT, d, pressure_pa=1.0)
+    assert solved == [3]
+    u_direct = harmonic(model, freqs, MAT, d, pressure_pa=1.0, method="direct")
+    for i in range(len(freqs)):
+        assert np.linalg.norm(u_fallback[i] - u_direct[i]) < 1e-12 * np.linalg.norm(u_direct[i])
+        assert np.linalg.norm(u[i] - u_direct[i]) < 1e-8 * np.linalg.norm(u_direct[i])
+
+
+def test_bad_method_is_refused():
+    with pytest.raises(InvalidParameter, match="method"):
+        harmonic(cantilever(5 * B, (1, 1, 2), order=1), [1.0], MAT, method="lanczos")
+
+
+@needs_pardiso
+def test_harmonic_reuses_the_static_ordering(coarse_model):
+    """After a static solve the direct harmonic solve reuses its ordering; same answer either way."""
+    m = Materials(pedicle_e_pa=3e9)
+    coarse_model.solve(m)
+    perm = coarse_model._solver.perm
+    assert sorted(perm) == list(range(1, coarse_model.n_dofs + 1))
+    fresh = copy.copy(coarse_model)  # no static solver: PARDISO orders the complex matrix itself
+    fresh._solver = None
+    u = harmonic(coarse_model, [3e3], m, method="direct")
+    u0 = harmonic(fresh, [3e3], m, method="direct")
+    assert np.linalg.norm(u - u0) < 1e-12 * np.linalg.norm(u0)
