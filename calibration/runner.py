@@ -206,6 +206,8 @@ def run_designs(
     max_workers : int, optional
         Worker processes of the local pool; default 1, since each FE solve
         already uses every core (PARDISO) and a model holds its matrices.
+        0 evaluates in this process, one design after the other: no worker
+        start-up, and models memoised by ``evaluate`` stay for the caller's next run.
     progress : bool
         Show a tqdm bar on stderr (only when it is a terminal).
 
@@ -253,7 +255,10 @@ def run_designs(
                     failures.append((todo[key], exc))
                 bar.update()
 
-            if scheduler is None:
+            if scheduler is None and max_workers == 0:
+                for key, design in todo.items():
+                    store(key, lambda design=design: evaluate(design, settings))
+            elif scheduler is None:
                 _run_pool(todo, evaluate, settings, max_workers, store)
             else:
                 _run_dask(todo, evaluate, settings, scheduler, store)

@@ -115,6 +115,18 @@ def _model(geometry: Geometry, order: int, resolution: float) -> tuple[PedicleJo
     return _MODELS[key]
 
 
+def shared_model(settings: Mapping) -> tuple[PedicleJointModel, str]:
+    """The (model, mesh hash) this process memoises for ``settings`` (see :func:`fe_settings`).
+
+    For callers that need the model itself (pictures, exports) and want the
+    meshing and assembly :func:`evaluate_design` has done, or will do, only once.
+    """
+    order, resolution = settings.get("order", 2), settings.get("resolution", 1.0)
+    _check_mesh(order, resolution)
+    with _LOCK:
+        return _model(_geometry(settings.get("geometry")), int(order), float(resolution))
+
+
 def evaluate_design(design: Mapping, settings: Mapping) -> dict:
     """Static FE response of one design (SI units, plain Python types).
 
@@ -210,3 +222,51 @@ def evaluate_modes(design: Mapping, settings: Mapping) -> dict:
         "y_to_x_fraction": [float(v) for v in y_fraction],
         "mesh_hash": mesh_hash,
     }
+
+
+#: Extra settings of :func:`evaluate_harmonic`: frequencies (Hz) and damping (spec §4).
+HARMONIC_KEYS = frozenset({"kind", "freq_hz", "rayleigh_a_per_s", "rayleigh_b_s", "loss_factor"})
+
+
+def evaluate_harmonic(design: Mapping, settings: Mapping) -> dict:
+    """Damped harmonic response of one design at a few frequencies (FE, spec §4).
+
+    ``settings`` as for :func:`evaluate_design` plus ``freq_hz`` (list, Hz) and
+    the damping ``rayleigh_a_per_s``, ``rayleigh_b_s``, ``loss_factor``
+    (defaults of :class:`fem.dynamics.Damping`).
+
+    Returns
+    -------
+    dict
+        ``freq_hz`` and, per output (``alpha_rad``, ``beta_rad``, ``incus_ux_m``),
+        ``{output}_re`` and ``{output}_im``: lists over the frequencies (rad, m).
+    """
+    from .dynamics import Damping, harmonic_outputs
+
+    s = dict(settings)
+    extra = {k: s.pop(k) for k in HARMONIC_KEYS if k in s}
+    unknown = set(s) - SETTINGS_KEYS
+    if unknown:
+        raise InvalidParameter(
+            f"unknown settings {sorted(unknown)}; valid: {sorted(SETTINGS_KEYS | HARMONIC_KEYS)}"
+        )
+    freq = [float(f) for f in extra.get("freq_hz", ())]
+    if not freq:
+        raise InvalidParameter("settings['freq_hz']: must list at least one frequency (Hz)")
+    defaults = Damping()
+    damping = Damping(
+        *(
+            float(extra.get(k, getattr(defaults, k)))
+            for k in ("rayleigh_a_per_s", "rayleigh_b_s", "loss_factor")
+        )
+    )
+    pressure = check_pressure(s.get("pressure_pa", DEFAULT_PRESSURE_PA))
+    materials = Materials(**{k: float(v) for k, v in design.items()})
+    model, mesh_hash = shared_model(s)
+    with _LOCK:
+        out = harmonic_outputs(model, freq, materials, damping, pressure)
+    result = {"freq_hz": freq, "mesh_hash": mesh_hash}
+    for k, v in out.items():
+        result[f"{k}_re"] = [float(x) for x in v.real]
+        result[f"{k}_im"] = [float(x) for x in v.imag]
+    return result

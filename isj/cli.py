@@ -1,4 +1,4 @@
-"""Command line: ``isj fem solve | cases | convergence``.
+"""Command line: ``isj fem ...``, ``isj lumped solve``, ``calibrate``, ``explore``, ``sweep``, ``report``.
 
 ``main(argv=None) -> int`` so that tests call it directly. Bad input gives one
 line on stderr naming the parameter and its valid range, exit code 2, and no
@@ -724,6 +724,25 @@ def _cmd_explore(args) -> int:
     return 0
 
 
+def _cmd_report(args) -> int:
+    from lumped.artifact import CorruptCalibration
+    from reports.config import ConfigError, load_config
+    from reports.run import load_calibration, run_report
+
+    # everything is validated before the output folder is created
+    try:
+        config = load_config(args.config, args.set or [])
+        calibration = load_calibration(config)
+    except (ConfigError, CorruptCalibration) as exc:
+        raise UsageError(str(exc)) from None
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise UsageError(f"--out {args.out!r}: exists and is not a folder")
+    verbosity = 0 if args.quiet else 1 + args.verbose
+    run_report(config, out, verbosity=verbosity, calibration=calibration)
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="isj", description="Mechanics of the incus-stapes coupling.")
     parser.add_argument("--version", action="version", version=f"isj {__version__}")
@@ -895,6 +914,20 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--plot", metavar="PATH", help="write a plot (.png, .pdf or .svg)")
     p.add_argument("--json", action="store_true", help="print a JSON list")
     p.set_defaults(func=_cmd_convergence)
+
+    p = sub.add_parser("report", help="run the pipeline and write the PDF report (spec 2-4)")
+    p.add_argument("--config", metavar="CASE.toml", help="TOML case file (default: built-in defaults)")
+    p.add_argument("--out", metavar="DIR", default="report", help="output folder (default ./report)")
+    p.add_argument(
+        "--set",
+        metavar="SECTION.KEY=VALUE",
+        action="append",
+        help="override one key of the case file, e.g. design.pedicle_e_pa=12e9 (repeatable)",
+    )
+    verb = p.add_mutually_exclusive_group()
+    verb.add_argument("-q", "--quiet", action="store_true", help="no progress output")
+    verb.add_argument("-v", "--verbose", action="count", default=0, help="timings and cache keys")
+    p.set_defaults(func=_cmd_report)
     return parser
 
 

@@ -1,0 +1,354 @@
+"""The computations behind the report, one function per section.
+
+Each step takes a :class:`Context` and returns ``(result, arrays)``: a JSON-able
+dict of numbers (SI units) and a dict of numpy arrays (may be empty). Steps do
+not plot and do not write into the output folder; :mod:`reports.run` caches
+their results (:mod:`reports.store`) and writes the data files. Static FE
+designs also go through the FE result cache of :mod:`calibration.runner`, which
+``isj calibrate`` and ``isj explore`` share.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from isj.cases import THESIS_BASE_ALPHA_RAD, THESIS_BASE_BETA_RAD, THESIS_CASES
+
+from .config import ReportConfig
+
+#: Outputs compared between FE and lumped models, in table order.
+STATIC_KEYS = ("alpha_rad", "beta_rad", "alpha_plus_beta_rad", "beta_over_alpha")
+
+
+@dataclass
+class Context:
+    """What every step needs: the configuration, the calibration, where FE results are cached."""
+
+    config: ReportConfig
+    calibration: object  # lumped.artifact.Calibration
+    fe_cache_dir: Path
+    progress: bool = True
+
+    @property
+    def settings(self) -> dict:
+        from fem.batch import fe_settings
+
+        c = self.config
+        return fe_settings(c.mesh.order, c.mesh.resolution, c.geometry, c.design.pressure_pa)
+
+    def base_design(self) -> dict[str, float]:
+        return self.config.design.moduli() | {"nu": self.config.design.nu}
+
+    def run_static(self, designs: list[dict]) -> list[dict]:
+        """FE results of ``designs`` (cached; evaluated in this process so the model is built once)."""
+        from calibration.runner import run_designs
+        from fem.batch import evaluate_design
+
+        recs = run_designs(
+            designs, evaluate_design, self.settings, self.fe_cache_dir, max_workers=0, progress=self.progress
+        )
+        return [r["result"] for r in recs]
+
+    def lumped(self, designs: list[dict]):
+        """Lumped static response (arrays over ``designs``)."""
+        from lumped.model import static_response
+
+        moduli = {k: np.array([d[k] for d in designs]) for k in designs[0] if k.endswith("_e_pa")}
+        return static_response(
+            self.calibration.factor_array(), self.config.geometry, self.config.design.pressure_pa, **moduli
+        )
+
+
+def _static_row(alpha: float, beta: float) -> dict[str, float]:
+    return {
+        "alpha_rad": float(alpha),
+        "beta_rad": float(beta),
+        "alpha_plus_beta_rad": float(alpha + beta),
+        "beta_over_alpha": float(beta / alpha),
+    }
+
+
+def _surface(tets: np.ndarray, region: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Triangles bounding each region of ``tets`` (outer faces and interfaces), with their region."""
+    local = np.array([[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]])
+    tri = tets[:, local].reshape(-1, 3)
+    reg = np.repeat(region, 4)
+    key = np.sort(tri, axis=1)
+    # a face belongs to a region's boundary when that region holds it once
+    both = np.column_stack([key, reg])
+    _, inv, counts = np.unique(both, axis=0, return_inverse=True, return_counts=True)
+    keep = counts[inv.ravel()] == 1
+    return tri[keep], reg[keep]
+
+
+def model_step(ctx: Context) -> tuple[dict, dict]:
+    """Mesh statistics and quality, and the base design's static solution with its fields for pictures."""
+    from fem.batch import shared_model
+    from fem.quality import mesh_quality
+
+    cfg = ctx.config
+    model, mesh_hash = shared_model(ctx.settings)
+    res = model.solve(cfg.design.materials(), cfg.design.pressure_pa)
+    mesh = model.mesh
+    q = mesh_quality(mesh)
+    # the half y < 0 (y = 0 is the plane of symmetry): its cut face shows the joint inside
+    centroid_y = mesh.points[mesh.tets, 1].mean(axis=1)
+    half = centroid_y < 0
+    tri, reg = _surface(mesh.tets[half], mesh.region[half])
+    nv = mesh.n_nodes
+    u = res.displacement_m[:nv]
+    result = {
+        "mesh_hash": mesh_hash,
+        "order": cfg.mesh.order,
+        "resolution": cfg.mesh.resolution,
+        "n_tets": int(model.n_tets),
+        "n_dofs": int(model.n_dofs),
+        "quality": q,
+        "region_names": list(mesh.region_names),
+        "base": res.to_dict(),
+    }
+    arrays = {
+        "points_m": mesh.points,
+        "triangles": tri.astype(np.int32),
+        "triangle_region": reg.astype(np.int8),
+        "displacement_m": u,
+    }
+    return result, arrays
+
+
+def write_base_vtu(ctx: Context, path: Path) -> Path:
+    """The base design as VTU (displacement, region id, strain-energy density)."""
+    from fem.batch import shared_model
+    from fem.export import write_model_vtu
+
+    model, _ = shared_model(ctx.settings)
+    res = model.solve(ctx.config.design.materials(), ctx.config.design.pressure_pa)
+    return write_model_vtu(path, model, res)
+
+
+def cases_step(ctx: Context) -> tuple[dict, dict]:
+    """The seven thesis cases (spec 2.5) from FE and lumped models, with the thesis's base case."""
+    base = ctx.base_design()
+    designs = [
+        base | {"pedicle_e_pa": c.pedicle_e_pa, "gap_e_pa": c.gap_e_pa, "capsule_e_pa": c.capsule_e_pa}
+        for c in THESIS_CASES
+    ]
+    fe = ctx.run_static(designs)
+    lum = ctx.lumped(designs)
+    rows = []
+    for i, (case, r) in enumerate(zip(THESIS_CASES, fe, strict=True)):
+        f = _static_row(r["alpha_rad"], r["beta_rad"])
+        lu = _static_row(lum.alpha_rad[i], lum.beta_rad[i])
+        rows.append(
+            {
+                "case": case.name,
+                "pedicle_e_pa": case.pedicle_e_pa,
+                "gap_e_pa": case.gap_e_pa,
+                "capsule_e_pa": case.capsule_e_pa,
+                "fe": f,
+                "lumped": lu,
+                "rel_diff": {k: lu[k] / f[k] - 1 for k in STATIC_KEYS},
+                "strain_energy_j": r["strain_energy_j"],
+            }
+        )
+    base_fe = rows[0]["fe"]
+
+    # a trend agrees when FE and lumped move the same way from the base case (FE changes
+    # under 1 % count as no trend: within the lumped model's accuracy)
+    trends = {}
+    for row in rows[1:]:
+        same = {}
+        for k in STATIC_KEYS:
+            dfe = row["fe"][k] / base_fe[k] - 1
+            dlu = row["lumped"][k] / rows[0]["lumped"][k] - 1
+            same[k] = bool(abs(dfe) < 0.01 or np.sign(dfe) == np.sign(dlu))
+        trends[row["case"]] = same
+    thesis = _static_row(THESIS_BASE_ALPHA_RAD, THESIS_BASE_BETA_RAD)
+    return {"rows": rows, "thesis_base": thesis, "trend_agrees": trends}, {}
+
+
+def _domain(ctx: Context) -> dict[str, tuple[float, float]]:
+    return {k: (float(lo), float(hi)) for k, (lo, hi) in ctx.calibration.domain.items()}
+
+
+def trends_step(ctx: Context) -> tuple[dict, dict]:
+    """α, β, β/α against each modulus over the calibrated domain: lumped curves, FE points."""
+    t = ctx.config.trends
+    base = ctx.base_design()
+    domain = _domain(ctx)
+    out, arrays = {}, {}
+    for name in t.moduli:
+        lo, hi = domain[name]
+        x = np.geomspace(lo, hi, t.n_lumped)
+        lum = ctx.lumped([base | {name: float(v)} for v in x])
+        arrays[f"{name}_x"] = x
+        arrays[f"{name}_alpha_rad"] = lum.alpha_rad
+        arrays[f"{name}_beta_rad"] = lum.beta_rad
+        xf = [float(v) for v in np.geomspace(lo, hi, t.fe_points)] if t.fe_points else []
+        fe = ctx.run_static([base | {name: v} for v in xf]) if xf else []
+        lum_f = ctx.lumped([base | {name: v} for v in xf]) if xf else None
+        out[name] = {
+            "domain_pa": [lo, hi],
+            "fe_points": [
+                {"value_pa": v, "fe": _static_row(r["alpha_rad"], r["beta_rad"])}
+                | {"lumped": _static_row(lum_f.alpha_rad[i], lum_f.beta_rad[i])}
+                for i, (v, r) in enumerate(zip(xf, fe, strict=True))
+            ],
+        }
+    return out, arrays
+
+
+def convergence_step(ctx: Context) -> tuple[dict, dict]:
+    """The pedicle cantilever (spec 2.6): maximum displacement against tets, P1 and P2, x and y."""
+    from fem.convergence import cantilever_study
+
+    c = ctx.config.convergence
+    studies = []
+    for order in c.orders:
+        for direction in c.directions:
+            rows = cantilever_study(direction, order, geometry=ctx.config.geometry)
+            studies.append({"order": order, "direction": direction, "rows": rows})
+    return {"studies": studies}, {}
+
+
+def calibration_step(ctx: Context) -> tuple[dict, dict]:
+    """The calibration's recorded quality, and a fresh check on designs it never saw."""
+    from calibration.doe import DesignSpace, sample
+
+    cal = ctx.calibration
+    c = ctx.config.calibration
+    space = DesignSpace.from_dict(cal.domain)
+    designs = sample(space, c.check_samples, c.seed, method="sobol") if c.check_samples else []
+    base = {"nu": ctx.config.design.nu}
+    designs = [base | d for d in designs]
+    points = []
+    if designs:
+        fe = ctx.run_static(designs)
+        lum = ctx.lumped(designs)
+        for i, (d, r) in enumerate(zip(designs, fe, strict=True)):
+            f = _static_row(r["alpha_rad"], r["beta_rad"])
+            lu = _static_row(lum.alpha_rad[i], lum.beta_rad[i])
+            points.append({"design": d, "fe": f, "lumped": lu})
+    errs = {
+        k: [p["lumped"][k] / p["fe"][k] - 1 for p in points]
+        for k in ("alpha_rad", "beta_rad", "beta_over_alpha")
+    }
+    check = {
+        "n": len(points),
+        "seed": c.seed,
+        **{f"max_abs_{k}": float(np.max(np.abs(v))) if v else None for k, v in errs.items()},
+        **{f"rms_{k}": float(np.sqrt(np.mean(np.square(v)))) if v else None for k, v in errs.items()},
+    }
+    return {
+        "source": c.file or "shipped default",
+        "factors": dict(cal.factors),
+        "domain": {k: list(v) for k, v in cal.domain.items()},
+        "training": cal.training,
+        "validation": cal.validation,
+        "fe_settings": {k: v for k, v in cal.fe_settings.items() if k != "geometry"},
+        "provenance": cal.provenance,
+        "check": check,
+        "points": points,
+    }, {}
+
+
+def sweep_step(ctx: Context) -> tuple[dict, dict]:
+    """Damped frequency response of the base design: lumped chain, FE harmonic checks, modes."""
+    from calibration.runner import run_designs
+    from fem.batch import evaluate_harmonic, evaluate_modes
+    from lumped.dynamics import OUTPUTS, chain_model, frequency_response
+
+    cfg = ctx.config
+    s = cfg.sweep
+    cal = ctx.calibration
+    moduli = cfg.design.moduli()
+    model = chain_model(
+        cal.factor_array(),
+        cal.dynamics.get("hinge_fraction", 1 / 3),
+        cfg.geometry,
+        cfg.design.materials(),
+        rayleigh_a_per_s=s.rayleigh_a_per_s,
+        rayleigh_b_s=s.rayleigh_b_s,
+        loss_factor=s.loss_factor,
+        **moduli,
+    )
+    freq = np.geomspace(s.fmin_hz, s.fmax_hz, s.n_freq)
+    H = frequency_response(model, freq, cfg.design.pressure_pa)
+    poles_hz, zeta = model.poles()
+    undamped = chain_model(
+        cal.factor_array(), cal.dynamics.get("hinge_fraction", 1 / 3), cfg.geometry, cfg.design.materials(),
+        rayleigh_b_s=0.0, **moduli,
+    )  # fmt: skip
+    f_lumped, _ = undamped.poles()
+    design = ctx.base_design()
+    checks = []
+    if s.fe_checks:
+        fe_freq = [float(f) for f in np.geomspace(s.fmin_hz, s.fmax_hz, s.fe_checks + 2)[1:-1]]
+        hs = ctx.settings | {
+            "kind": "harmonic",
+            "freq_hz": fe_freq,
+            "rayleigh_a_per_s": s.rayleigh_a_per_s,
+            "rayleigh_b_s": s.rayleigh_b_s,
+            "loss_factor": s.loss_factor,
+        }
+        rec = run_designs(
+            [design], evaluate_harmonic, hs, ctx.fe_cache_dir, max_workers=0, progress=ctx.progress
+        )
+        fe = rec[0]["result"]
+        lum = frequency_response(model, fe_freq, cfg.design.pressure_pa)
+        for i, f in enumerate(fe_freq):
+            row = {"freq_hz": f}
+            for j, k in enumerate(OUTPUTS):
+                h_fe = complex(fe[f"{k}_re"][i], fe[f"{k}_im"][i])
+                row[k] = {
+                    "fe_abs": abs(h_fe),
+                    "fe_phase_deg": float(np.degrees(np.angle(h_fe))),
+                    "lumped_abs": float(abs(lum[i, j])),
+                    "lumped_phase_deg": float(np.degrees(np.angle(lum[i, j]))),
+                    "rel_error": float(abs(lum[i, j] / h_fe - 1)),
+                }
+            checks.append(row)
+    ms = ctx.settings | {"kind": "modes", "n_modes": s.n_modes}
+    rec = run_designs([design], evaluate_modes, ms, ctx.fe_cache_dir, max_workers=0, progress=ctx.progress)
+    fe_modes = rec[0]["result"]
+    arrays = {"freq_hz": freq} | {f"{k}_re": H[:, j].real for j, k in enumerate(OUTPUTS)}
+    arrays |= {f"{k}_im": H[:, j].imag for j, k in enumerate(OUTPUTS)}
+    return {
+        "outputs": list(OUTPUTS),
+        "fmin_hz": s.fmin_hz,
+        "fmax_hz": s.fmax_hz,
+        "damping": {k: getattr(s, k) for k in ("rayleigh_a_per_s", "rayleigh_b_s", "loss_factor")},
+        "lumped_natural_freq_hz": [float(v) for v in f_lumped],
+        "lumped_damped_pole_freq_hz": [float(v) for v in poles_hz],
+        "lumped_damping_ratio": [float(v) for v in zeta],
+        "fe_modes_hz": fe_modes["freq_hz"],
+        "fe_in_plane_modes_hz": fe_modes["in_plane_freq_hz"],
+        "fe_mode_y_to_x": fe_modes["y_to_x_fraction"],
+        "fe_checks": checks,
+        "hinge_fraction": cal.dynamics.get("hinge_fraction"),
+    }, arrays
+
+
+#: Report sections in order: (name, function, the configuration sections it reads).
+STEPS = (
+    ("model", model_step, ("design", "geometry", "mesh")),
+    ("cases", cases_step, ("design", "geometry", "mesh")),
+    ("trends", trends_step, ("design", "geometry", "mesh", "trends")),
+    ("convergence", convergence_step, ("geometry", "convergence")),
+    ("calibration", calibration_step, ("design", "geometry", "mesh", "calibration")),
+    ("sweep", sweep_step, ("design", "geometry", "mesh", "sweep")),
+)
+
+
+def step_inputs(ctx: Context, sections: tuple[str, ...]) -> dict:
+    """What a step's result depends on: its config sections, the FE code, the calibration."""
+    from fem.batch import fem_code_digest
+
+    d = ctx.config.to_dict()
+    cal = dataclasses.asdict(ctx.calibration)
+    cal.pop("provenance", None)  # the date of a calibration does not change its numbers
+    return {"config": {s: d[s] for s in sections}, "fem_code": fem_code_digest(), "calibration": cal}
