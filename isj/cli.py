@@ -50,7 +50,8 @@ def _float(name: str, lo: float = -math.inf, hi: float = math.inf, lo_open=True,
 _MODULUS_OPTIONS = ("pedicle", "gap", "capsule", "plate", "stapes", "incus")
 
 
-def _add_design_options(p: argparse.ArgumentParser) -> None:
+def _add_moduli_options(p: argparse.ArgumentParser, whose: str = "") -> None:
+    """--<region>-e for each region of the joint model, and --nu."""
     d = Materials()
     for r in _MODULUS_OPTIONS:
         p.add_argument(
@@ -58,14 +59,18 @@ def _add_design_options(p: argparse.ArgumentParser) -> None:
             metavar="PA",
             type=_float(f"--{r}-e", lo=0.0),
             default=d.youngs(r),
-            help=f"Young's modulus of the {r} (Pa, > 0; default {d.youngs(r):g})",
+            help=f"Young's modulus of the {whose}{r} (Pa, > 0; default {d.youngs(r):g})",
         )
     p.add_argument(
         "--nu",
         type=_float("--nu", -1.0, 0.5),
         default=d.nu,
-        help=f"Poisson's ratio, in (-1, 0.5) (default {d.nu})",
+        help=f"Poisson's ratio of the {whose or 'model'}, in (-1, 0.5) (default {d.nu})",
     )
+
+
+def _add_design_options(p: argparse.ArgumentParser) -> None:
+    _add_moduli_options(p)
     p.add_argument(
         "--pressure",
         metavar="PA",
@@ -743,6 +748,78 @@ def _cmd_report(args) -> int:
     return 0
 
 
+def _add_ear_options(p: argparse.ArgumentParser) -> None:
+    _add_moduli_options(p, "joint model's ")
+    p.add_argument(
+        "--drum-e", metavar="PA", type=_float("--drum-e", lo=0.0), default=20e6, help="eardrum modulus (Pa)"
+    )
+    p.add_argument("--rigid-joint", action="store_true", help="replace the joint model by a rigid connection")
+    p.add_argument("--order", type=int, choices=(1, 2), default=2, help="P1 or P2 tetrahedra (default 2)")
+    p.add_argument(
+        "--resolution",
+        metavar="R",
+        type=_float("--resolution", lo=0.0),
+        default=1.0,
+        help="joint mesh refinement factor, > 0 (default 1)",
+    )
+    p.add_argument("--json", action="store_true", help="print JSON")
+
+
+def _ear_model(args):
+    from fem.ear.middle_ear import MiddleEarModel
+    from fem.model import PedicleJointModel
+
+    from .ear import EarMaterials
+
+    ear_materials = EarMaterials(drum_e_pa=args.drum_e)
+    joint = None if args.rigid_joint else PedicleJointModel(order=args.order, resolution=args.resolution)
+    return MiddleEarModel(joint=joint), ear_materials
+
+
+def _ear_lines(name: str, r) -> list[str]:
+    fp = r.footplate_m_per_pa
+    lines = [
+        f"{name}: umbo {r.umbo_m_per_pa * 1e9:.2f} nm/Pa, "
+        f"eardrum max {r.eardrum_max_m_per_pa * 1e9:.2f} nm/Pa",
+        f"  footplate (x, y, z) = ({fp[0] * 1e9:.3f}, {fp[1] * 1e9:.3f}, {fp[2] * 1e9:.3f}) nm/Pa, "
+        f"piston {r.footplate_piston_m_per_pa * 1e9:.3f} nm/Pa",
+    ]
+    if r.alpha_rad_per_pa is not None:
+        lines.append(
+            f"  alpha = {r.alpha_rad_per_pa * 1e6:.4f} urad/Pa, beta = {r.beta_rad_per_pa * 1e6:.4f} urad/Pa"
+        )
+    return lines
+
+
+def _cmd_ear_solve(args) -> int:
+    model, ear_materials = _ear_model(args)
+    res = model.solve(_materials(args), ear_materials)
+    out = res.to_dict() | {"n_dofs": model.n_dofs, "rigid_joint": args.rigid_joint}
+    if args.json:
+        print(json.dumps(out))
+    else:
+        print("\n".join(_ear_lines("whole ear, per Pa of ear-canal pressure", res)))
+        ax = res.rotation_axis
+        print(f"  axis: point {[round(v * 1e3, 4) for v in ax['point_m']]} mm, "
+              f"direction {[round(v, 4) for v in ax['direction']]}")  # fmt: skip
+        print(f"  {model.n_dofs} dofs, solve {res.timings_s['total']:.2f} s")
+    return 0
+
+
+def _cmd_ear_cases(args) -> int:
+    from .cases import THESIS_CASES
+
+    model, ear_materials = _ear_model(args)
+    base = Materials(nu=args.nu)
+    res = {c.name: model.solve(c.materials(base), ear_materials) for c in THESIS_CASES}
+    if args.json:
+        print(json.dumps([{"case": k} | r.to_dict() for k, r in res.items()]))
+    else:
+        for k, r in res.items():
+            print("\n".join(_ear_lines(k, r)))
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="isj", description="Mechanics of the incus-stapes coupling.")
     parser.add_argument("--version", action="version", version=f"isj {__version__}")
@@ -928,6 +1005,15 @@ def build_parser() -> argparse.ArgumentParser:
     verb.add_argument("-q", "--quiet", action="store_true", help="no progress output")
     verb.add_argument("-v", "--verbose", action="count", default=0, help="timings and cache keys")
     p.set_defaults(func=_cmd_report)
+
+    ear = sub.add_parser("ear", help="the whole cat middle ear with the joint inside (spec 5), static")
+    esub = ear.add_subparsers(dest="ear_command", required=True, parser_class=_Parser)
+    p = esub.add_parser("solve", help="static response per Pa of ear-canal pressure")
+    _add_ear_options(p)
+    p.set_defaults(func=_cmd_ear_solve)
+    p = esub.add_parser("cases", help="the seven thesis cases inside the ear")
+    _add_ear_options(p)
+    p.set_defaults(func=_cmd_ear_cases)
     return parser
 
 

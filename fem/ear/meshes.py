@@ -27,6 +27,21 @@ def _orient_up(nodes, tris):
     return tris
 
 
+def zip_rings(a: int, m_in: int, b: int, m_out: int) -> list[list[int]]:
+    """Triangles between two closed rings of m_in and m_out nodes starting at ids a and b (same angle 0)."""
+    tris = []
+    i = o = 0
+    while i < m_in or o < m_out:
+        # next node in angle, decided with exact integer arithmetic: (o+1)/m_out vs (i+1)/m_in
+        if i == m_in or (o < m_out and (o + 1) * m_in <= (i + 1) * m_out):
+            tris.append([a + i % m_in, b + o, b + (o + 1) % m_out])
+            o += 1
+        else:
+            tris.append([a + i, b + o % m_out, a + (i + 1) % m_in])
+            i += 1
+    return tris
+
+
 def disk_mesh(radius_m: float, n_rings: int):
     """Polar triangulation of a disk of radius ``radius_m`` (m) in the plane z = 0.
 
@@ -50,17 +65,7 @@ def disk_mesh(radius_m: float, n_rings: int):
     tris = [[0, 1 + j, 1 + (j + 1) % 6] for j in range(6)]
     for k in range(2, n + 1):
         m_in, m_out = 6 * (k - 1), 6 * k
-        a, b = first[k - 1], first[k]
-        i = o = 0
-        while i < m_in or o < m_out:
-            # Advance whichever ring's next node comes first in angle (exact integer
-            # comparison of (o+1)/m_out with (i+1)/m_in, so the result is deterministic).
-            if i == m_in or (o < m_out and (o + 1) * m_in <= (i + 1) * m_out):
-                tris.append([a + i % m_in, b + o, b + (o + 1) % m_out])
-                o += 1
-            else:
-                tris.append([a + i, b + o % m_out, a + (i + 1) % m_in])
-                i += 1
+        tris += zip_rings(first[k - 1], m_in, first[k], m_out)
     tris = _orient_up(nodes, np.array(tris, dtype=np.int64))
     return nodes, tris, {"centre": np.array([0]), "boundary": np.arange(first[n], len(nodes))}
 

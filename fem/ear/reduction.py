@@ -1,0 +1,127 @@
+"""Master–slave elimination over a multi-part dof vector, with a reusable reduced pattern.
+
+The whole ear's full dof vector concatenates parts (shell meshes with 6 dofs
+a node, a tetrahedral mesh with 3, rigid bodies with 6). Constraints are of
+three kinds, all exact (no penalty stiffness):
+
+- clamped dofs: zero;
+- slave dofs: a fixed linear combination of a rigid body's six dofs
+  (u_s = u_m + θ_m × (x_s − x_m), and θ_s = θ_m for shell nodes);
+- everything else is independent.
+
+So u = T q, with T (n_full × n_reduced) sparse, and K_r = Tᵀ K T, f_r = Tᵀ f.
+:class:`ReducedPattern` precomputes, for a fixed list of full-matrix entries
+(rows, cols), the sparse linear map from their values to the CSR data of K_r,
+so that a part whose values change (the joint model's moduli) costs a single
+sparse mat-vec instead of a triple product.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+
+class ConstraintBuilder:
+    """Collects clamps and rigid ties on a full dof vector of size ``n_full``, then builds T."""
+
+    def __init__(self, n_full: int):
+        self.n_full = int(n_full)
+        self._fixed = np.zeros(self.n_full, dtype=bool)
+        self._slave = np.zeros(self.n_full, dtype=bool)
+        self._rows: list[np.ndarray] = []
+        self._cols: list[np.ndarray] = []
+        self._vals: list[np.ndarray] = []
+
+    def clamp(self, dofs) -> None:
+        """Prescribe zero on ``dofs``."""
+        self._fixed[np.asarray(dofs, dtype=np.int64)] = True
+
+    def tie(self, dofs, master_dofs, coefficients) -> None:
+        """u[dofs[i]] = Σ_j coefficients[i, j] u[master_dofs[j]].
+
+        Parameters
+        ----------
+        dofs : (s,) slave dofs, each tied once
+        master_dofs : (6,) the master body's dofs, themselves independent
+        coefficients : (s, 6) the rigid map's rows
+        """
+        dofs = np.asarray(dofs, dtype=np.int64)
+        if self._slave[dofs].any() or self._fixed[dofs].any():
+            raise ValueError("a dof is tied or clamped twice")
+        self._slave[dofs] = True
+        c = np.asarray(coefficients, dtype=float).reshape(len(dofs), -1)
+        md = np.asarray(master_dofs, dtype=np.int64)
+        self._rows.append(np.repeat(dofs, len(md)))
+        self._cols.append(np.tile(md, len(dofs)))
+        self._vals.append(c.ravel())
+
+    def build(self) -> tuple[sp.csr_matrix, np.ndarray]:
+        """(T, free): T (n_full × n_free) with u = T q; ``free`` the full indices of q's dofs."""
+        free = np.flatnonzero(~(self._fixed | self._slave))
+        index = np.full(self.n_full, -1, dtype=np.int64)
+        index[free] = np.arange(free.size)
+        rows = [free]
+        cols = [np.arange(free.size)]
+        vals = [np.ones(free.size)]
+        for r, c, v in zip(self._rows, self._cols, self._vals, strict=True):
+            if (index[c] < 0).any():
+                raise ValueError("a master dof is itself tied or clamped")
+            keep = v != 0.0
+            rows.append(r[keep])
+            cols.append(index[c[keep]])
+            vals.append(v[keep])
+        T = sp.coo_matrix(
+            (np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+            shape=(self.n_full, free.size),
+        ).tocsr()
+        T.sum_duplicates()
+        T.sort_indices()
+        return T, free
+
+
+class ReducedPattern:
+    """The CSR pattern of Tᵀ K T for K with entries at fixed (rows, cols), and the map values → data.
+
+    Parameters
+    ----------
+    T : (n_full, n_red) constraint map (CSR)
+    rows, cols : (n_e,) positions of the full matrix's entries (duplicates allowed: they add)
+    """
+
+    def __init__(self, T: sp.csr_matrix, rows, cols):
+        T = sp.csr_matrix(T)
+        T.sort_indices()
+        n_red = T.shape[1]
+        rows = np.asarray(rows, dtype=np.int64)
+        cols = np.asarray(cols, dtype=np.int64)
+        count = np.diff(T.indptr)
+        cr, cc = count[rows], count[cols]
+        nprod = cr * cc
+        live = np.flatnonzero(nprod)  # entries on clamped dofs vanish
+        nprod_live = nprod[live]
+        e = np.repeat(live, nprod_live)
+        start = np.cumsum(nprod_live) - nprod_live
+        k = np.arange(e.size) - np.repeat(start, nprod_live)
+        i, j = np.divmod(k, cc[e])
+        pa = T.indptr[rows[e]] + i
+        pb = T.indptr[cols[e]] + j
+        a = T.indices[pa].astype(np.int64)
+        b = T.indices[pb].astype(np.int64)
+        w = T.data[pa] * T.data[pb]
+        key, inv = np.unique(a * n_red + b, return_inverse=True)
+        r, c = np.divmod(key, n_red)
+        self.n = n_red
+        self.indices = c.astype(np.int32)
+        self.indptr = np.concatenate([[0], np.cumsum(np.bincount(r, minlength=n_red))]).astype(np.int64)
+        self.map = sp.csr_matrix((w, (inv.ravel(), e)), shape=(key.size, rows.size))
+        self.n_entries = rows.size
+
+    @property
+    def nnz(self) -> int:
+        return self.indices.size
+
+    def matrix(self, values) -> sp.csr_matrix:
+        """Tᵀ K T (CSR, sorted indices) for K's entry ``values`` (length n_e)."""
+        data = self.map @ np.asarray(values, dtype=float)
+        return sp.csr_matrix((data, self.indices, self.indptr), shape=(self.n, self.n))
