@@ -14,6 +14,9 @@ Example::
     [sweep]
     fmax_hz = 40e3
     fe_checks = 3
+
+    [ear]
+    drum_e_pa = 30e6
 """
 
 from __future__ import annotations
@@ -25,6 +28,7 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 
 from isj.design import DEFAULT_PRESSURE_PA, Geometry, InvalidParameter, Materials
+from isj.ear import EarMaterials
 
 
 class ConfigError(ValueError):
@@ -107,7 +111,11 @@ class SweepConfig:
 
 @dataclass(frozen=True)
 class ReportConfig:
-    """Everything ``isj report`` computes from; ``geometry`` in metres (spec 2.2)."""
+    """Everything ``isj report`` computes from; ``geometry`` in metres (spec 2.2).
+
+    ``ear`` holds the whole ear's eardrum, footplate and spring constants (spec 5,
+    :class:`isj.ear.EarMaterials`); its anatomy is :class:`isj.ear.EarGeometry`'s default.
+    """
 
     design: DesignConfig = field(default_factory=DesignConfig)
     geometry: Geometry = field(default_factory=Geometry)
@@ -116,6 +124,7 @@ class ReportConfig:
     convergence: ConvergenceConfig = field(default_factory=ConvergenceConfig)
     calibration: CalibrationConfig = field(default_factory=CalibrationConfig)
     sweep: SweepConfig = field(default_factory=SweepConfig)
+    ear: EarMaterials = field(default_factory=EarMaterials)
 
     def to_dict(self) -> dict[str, dict]:
         return {f.name: _section_dict(getattr(self, f.name)) for f in fields(self)}

@@ -96,6 +96,19 @@ def _sweep(res: dict, arr: dict) -> dict[str, str]:
     }
 
 
+def _ear(res: dict) -> dict[str, str]:
+    cols = ["case", "umbo_m_per_pa", "eardrum_max_m_per_pa", "footplate_x_m_per_pa", "footplate_y_m_per_pa"]
+    cols += ["footplate_z_m_per_pa", "footplate_piston_m_per_pa", "alpha_rad_per_pa", "beta_rad_per_pa"]
+    rows = []
+    for c in [*res["cases"], {"case": "rigid_joint"} | res["rigid_joint"]]:
+        a, b = c["alpha_rad_per_pa"], c["beta_rad_per_pa"]
+        rows.append(
+            [c["case"], c["umbo_m_per_pa"], c["eardrum_max_m_per_pa"], *c["footplate_m_per_pa"]]
+            + [c["footplate_piston_m_per_pa"], "" if a is None else a, "" if b is None else b]
+        )
+    return {"ear.csv": _csv("whole ear, static, per Pa of ear-canal pressure (m/Pa, rad/Pa)", cols, rows)}
+
+
 def tables(step: str, res: dict, arr: dict) -> dict[str, str]:
     """File name → CSV text for one step's result."""
     if step == "cases":
@@ -108,4 +121,6 @@ def tables(step: str, res: dict, arr: dict) -> dict[str, str]:
         return _calibration(res)
     if step == "sweep":
         return _sweep(res, arr)
+    if step == "ear":
+        return _ear(res)
     return {}

@@ -235,3 +235,34 @@ def domain_points(ax, points, domain, x: str, y: str):
     ax.set_ylabel(ly, fontsize=7)
     ax.tick_params(labelsize=6)
     return artists
+
+
+def ear_picture(ax, arrays: dict):
+    """The eardrum coloured by |u| (nm/Pa), the footplate, the ossicular chain as a line (3-D, mm)."""
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    x = np.asarray(arrays["drum_nodes_m"]) * 1e3
+    tri = np.asarray(arrays["drum_triangles"])
+    mag = np.linalg.norm(arrays["drum_u_m_per_pa"], axis=1)[tri].mean(axis=1) * 1e9
+    drum = Poly3DCollection(x[tri], cmap="viridis", edgecolors="k", linewidths=0.05)
+    drum.set_array(mag)
+    drum.set_rasterized(True)
+    ax.add_collection3d(drum)
+    xf = np.asarray(arrays["footplate_nodes_m"]) * 1e3
+    fp = Poly3DCollection(
+        xf[np.asarray(arrays["footplate_triangles"])], facecolors="#8c6d31", edgecolors="none"
+    )
+    ax.add_collection3d(fp)
+    c = np.asarray(arrays["chain_m"]) * 1e3
+    artists = [drum, fp]
+    artists += ax.plot(c[:, 0], c[:, 1], c[:, 2], "-", color="#d62728", lw=2.5, label="ossicular chain")
+    lig = np.asarray(arrays["ligaments_m"]) * 1e3
+    artists += ax.plot(lig[:, 0], lig[:, 1], lig[:, 2], "ks", ms=3, label="ligament attachments")
+    pts = np.vstack([x, xf, c, lig])
+    _set_3d_equal(ax, pts)
+    for lab, f in (("x (mm)", ax.set_xlabel), ("y (mm)", ax.set_ylabel), ("z (mm), lateral", ax.set_zlabel)):
+        f(lab, fontsize=7)
+    ax.tick_params(labelsize=6)
+    ax.view_init(elev=8, azim=-70)  # low, so the cone's depth and the chain below it show
+    ax.legend(fontsize=6, loc="upper right", bbox_to_anchor=(1.0, 0.95))
+    return artists

@@ -333,6 +333,73 @@ def sweep_step(ctx: Context) -> tuple[dict, dict]:
     }, arrays
 
 
+def ear_step(ctx: Context) -> tuple[dict, dict]:
+    """The whole cat middle ear (spec 5) with the joint model inside: static response per Pa."""
+    from fem.batch import shared_model
+    from fem.ear.middle_ear import MiddleEarModel
+    from isj.ear import EXPERIMENT_STAPES_M_PER_PA, EXPERIMENT_UMBO_M_PER_PA, SPL_100DB_PEAK_PA
+
+    cfg = ctx.config
+    joint, _ = shared_model(ctx.settings)
+    base = cfg.design.materials()
+    ear = MiddleEarModel(joint=joint)
+    cases = {c.name: ear.solve(c.materials(base), cfg.ear) for c in THESIS_CASES}
+    rigid_model = MiddleEarModel(joint=None, geometry=ear.geometry)
+    rigid = rigid_model.solve(base, cfg.ear)
+    res0 = cases[THESIS_CASES[0].name]
+    g = ear.geometry
+    result = {
+        "n_dofs": int(ear.n_dofs),
+        "n_dofs_rigid_joint": int(rigid_model.n_dofs),
+        "lever_ratio": float(g.lever_ratio),
+        "ear_materials": dataclasses.asdict(cfg.ear),
+        "cases": [{"case": k} | _ear_summary(r) for k, r in cases.items()],  # a list keeps the order
+        "rigid_joint": _ear_summary(rigid),
+        "experiment": {
+            "umbo_m_per_pa": EXPERIMENT_UMBO_M_PER_PA,
+            "stapes_m_per_pa": list(EXPERIMENT_STAPES_M_PER_PA),
+            "source": "Guinan & Peake 1967 (umbo, stapes); Decraemer et al. 2000 (stapes about 30 nm/Pa)",
+        },
+        "spl_100db_peak_pa": SPL_100DB_PEAK_PA,
+    }
+    drum = ear.drum
+    arrays = {
+        "drum_nodes_m": drum.nodes_m,
+        "drum_triangles": drum.triangles.astype(np.int32),
+        "drum_u_m_per_pa": ear.drum_displacement(res0.displacement),
+        "footplate_nodes_m": ear.footplate.nodes_m,
+        "footplate_triangles": ear.footplate.triangles.astype(np.int32),
+        # the ossicular chain as a polyline: umbo, manubrium tip, body, long process, head, footplate
+        "chain_m": np.array(
+            [
+                g.umbo_m,
+                g.manubrium_tip_m,
+                g.body_reference_m,
+                g.long_process_end_m,
+                g.stapes_head_m,
+                g.footplate_centre_m,
+            ]
+        ),  # fmt: skip
+        "ligaments_m": np.array([g.malleus_ligament_m, g.incudal_lateral_m, g.incudal_medial_m]),
+    }
+    return result, arrays
+
+
+def _ear_summary(r) -> dict:
+    d = r.to_dict()
+    keep = (
+        "umbo_m_per_pa",
+        "umbo_vector_m_per_pa",
+        "eardrum_max_m_per_pa",
+        "footplate_m_per_pa",
+        "footplate_piston_m_per_pa",
+        "alpha_rad_per_pa",
+        "beta_rad_per_pa",
+        "rotation_axis",
+    )
+    return {k: d[k] for k in keep}
+
+
 #: Report sections in order: (name, function, the configuration sections it reads).
 STEPS = (
     ("model", model_step, ("design", "geometry", "mesh")),
@@ -341,14 +408,31 @@ STEPS = (
     ("convergence", convergence_step, ("geometry", "convergence")),
     ("calibration", calibration_step, ("design", "geometry", "mesh", "calibration")),
     ("sweep", sweep_step, ("design", "geometry", "mesh", "sweep")),
+    ("ear", ear_step, ("design", "geometry", "mesh", "ear")),
 )
 
 
 def step_inputs(ctx: Context, sections: tuple[str, ...]) -> dict:
-    """What a step's result depends on: its config sections, the FE code, the calibration."""
+    """What a step's result depends on: its config sections, the FE code, the step code, the calibration."""
     from fem.batch import fem_code_digest
 
     d = ctx.config.to_dict()
     cal = dataclasses.asdict(ctx.calibration)
     cal.pop("provenance", None)  # the date of a calibration does not change its numbers
-    return {"config": {s: d[s] for s in sections}, "fem_code": fem_code_digest(), "calibration": cal}
+    return {
+        "config": {s: d[s] for s in sections},
+        "fem_code": fem_code_digest(),
+        "step_code": _step_code_digest(),
+        "calibration": cal,
+    }
+
+
+def _step_code_digest() -> str:
+    """Digest of this module and the whole-ear modules: a changed step must not reuse old results."""
+    import hashlib
+
+    root = Path(__file__).resolve().parent.parent
+    h = hashlib.sha256()
+    for f in [Path(__file__), *sorted((root / "fem" / "ear").glob("*.py")), root / "isj" / "ear.py"]:
+        h.update(f.read_bytes())
+    return h.hexdigest()[:16]

@@ -84,13 +84,14 @@ def _pages_text(path) -> list[str]:
 def test_interrupted_run_writes_no_pdf_and_resumes_from_the_finished_steps(report):
     assert not report["pdf_after_interrupt"]
     # every step but the interrupted one came from the cache
-    assert report["first"]["cached"] == ["model", "cases", "trends", "convergence", "calibration"]
-    assert report["second"]["cached"] == ["model", "cases", "trends", "convergence", "calibration", "sweep"]
+    steps = ["model", "cases", "trends", "convergence", "calibration", "sweep", "ear"]
+    assert report["first"]["cached"] == steps[: steps.index("sweep")]  # the ear never ran before
+    assert report["second"]["cached"] == steps
 
 
 def test_pdf_has_the_pages_in_order(report):
     texts = _pages_text(report["dir"] / "report.pdf")
-    assert len(texts) == len(pdf.PAGE_TITLES) == 8
+    assert len(texts) == len(pdf.PAGE_TITLES) == 9
     for text, title in zip(texts, pdf.PAGE_TITLES, strict=True):
         assert title in text
 
@@ -126,6 +127,10 @@ def test_pdf_text_carries_the_numbers_of_the_json(report):
     assert len(sweep["fe_checks"]) == 1
     assert pdf.urad(sweep["fe_checks"][0]["beta_rad"]["fe_abs"]) in texts[7]
     assert f"{sweep['fe_modes_hz'][0]:10.0f}".strip() in texts[7]
+    ear = json.loads((data / "ear.json").read_text())
+    for c in ear["cases"]:
+        assert pdf.urad(c["alpha_rad_per_pa"]) in texts[8] and pdf.urad(c["beta_rad_per_pa"]) in texts[8]
+    assert f"{ear['cases'][0]['umbo_m_per_pa'] * 1e9:.2f}" in texts[8]
 
 
 def test_json_numbers_are_physical(report):
@@ -140,6 +145,15 @@ def test_json_numbers_are_physical(report):
     sweep = json.loads((data / "sweep.json").read_text())
     for k in ("alpha_rad", "beta_rad"):
         assert sweep["fe_checks"][0][k]["rel_error"] < 0.2
+    # the whole ear: within a factor of 2 of the cat's umbo (53 nm/Pa), and a joint that barely
+    # changes the stapes's piston motion compared with a rigid one
+    ear = json.loads((data / "ear.json").read_text())
+    base = ear["cases"][0]
+    assert base["case"] == "base"
+    assert 0.5 < base["umbo_m_per_pa"] / 53e-9 < 2
+    assert base["footplate_piston_m_per_pa"] == pytest.approx(
+        ear["rigid_joint"]["footplate_piston_m_per_pa"], rel=0.1
+    )
     lumped = np.loadtxt(data / "sweep_lumped.csv", delimiter=",", skiprows=2)
     assert lumped.shape[0] == 20 and np.isfinite(lumped).all()
 
@@ -168,15 +182,15 @@ def test_every_figure_has_data(report):
             finite += [p.get_window_extent().width * p.get_window_extent().height > 0 for p in ax.patches]
             assert any(finite), f"empty axes on page {title!r}: {ax.get_title() or ax.get_ylabel()}"
         plt.close(fig)
-    # model (2), cases (2), trends (2 x 3), energy (1), convergence (1), calibration (6), sweep (2)
-    assert n_axes == 2 + 2 + 6 + 1 + 1 + 6 + 2
+    # model (2), cases (2), trends (2 x 3), energy (1), convergence (1), calibration (6), sweep (2), ear (1)
+    assert n_axes == 2 + 2 + 6 + 1 + 1 + 6 + 2 + 1
 
 
 def test_data_files_and_resolved_config(report):
     out = report["dir"]
-    for name in ("model", "cases", "trends", "convergence", "calibration", "sweep"):
+    for name in ("model", "cases", "trends", "convergence", "calibration", "sweep", "ear"):
         assert (out / "data" / f"{name}.json").is_file()
-    for csv in ("cases.csv", "strain_energy.csv", "convergence.csv", "calibration_check.csv"):
+    for csv in ("cases.csv", "strain_energy.csv", "convergence.csv", "calibration_check.csv", "ear.csv"):
         assert len((out / "data" / csv).read_text().splitlines()) >= 2
     assert (out / "base.vtu").stat().st_size > 0
     # the resolved configuration reads back as the same configuration
@@ -255,5 +269,5 @@ def test_toml_round_trip_of_every_default():
 
     cfg = ReportConfig()
     data = tomllib.loads(cfg.to_toml())
-    assert set(data) == {"design", "geometry", "mesh", "trends", "convergence", "calibration", "sweep"}
+    assert set(data) == {"design", "geometry", "mesh", "trends", "convergence", "calibration", "sweep", "ear"}
     assert math.isclose(data["design"]["pedicle_e_pa"], cfg.design.pedicle_e_pa)
