@@ -820,6 +820,177 @@ def _cmd_ear_cases(args) -> int:
     return 0
 
 
+def _cmd_ear_sweep(args) -> int:
+    """Lumped ear's frequency response per Pa (CSV, NPZ, Bode PNG, JSON), FE whole-ear static spot check."""
+    import numpy as np
+
+    from lumped.ear import OUTPUTS, UNITS, ear_model
+    from lumped.plots import bode
+
+    from .atomic import atomic_write, atomic_write_text
+    from .ear import EarMaterials
+    from .provenance import write_run_record
+
+    if not 0 < args.fmin_hz < args.fmax_hz:
+        raise UsageError(f"--fmin-hz/--fmax-hz = {args.fmin_hz:g}/{args.fmax_hz:g}: need 0 < fmin < fmax")
+    if not 2 <= args.n <= 100_000:
+        raise UsageError(f"--n = {args.n}: must be an integer in [2, 100000]")
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise UsageError(f"--out = {args.out!r}: exists and is not a directory")
+    cal = _load_calibration(args.calibration)
+    m = _materials(args)
+    designs = {f"{r}_e_pa": getattr(m, f"{r}_e_pa") for r in _MODULUS_OPTIONS}
+    if not args.rigid_joint:
+        _warn_outside(cal, designs)
+    t0 = time.perf_counter()
+    lumped = ear_model(
+        cal.factor_array(),
+        cal.dynamics.get("hinge_fraction", 1 / 3),
+        ear_materials=EarMaterials(drum_e_pa=args.drum_e),
+        rigid_joint=args.rigid_joint,
+        rayleigh_a_per_s=args.rayleigh_a,
+        rayleigh_b_s=args.rayleigh_b,
+        loss_factor=args.loss_factor,
+        **designs,
+    )
+    freq = np.geomspace(args.fmin_hz, args.fmax_hz, args.n)
+    H = lumped.freq_resp(freq)  # (n_freq, 4), per Pa
+    static = lumped.static_response()
+    poles_hz, zeta = lumped.natural_frequencies_hz()
+    t1 = time.perf_counter()
+    # FE whole-ear static spot check (low frequency), before anything is written
+    fe_model, ear_materials = _ear_model(args)
+    fe = fe_model.solve(m, ear_materials)
+    t2 = time.perf_counter()
+    fe_vals = {
+        "umbo_m": fe.umbo_m_per_pa,
+        "stapes_m": fe.footplate_piston_m_per_pa,
+        "alpha_rad": fe.alpha_rad_per_pa,
+        "beta_rad": fe.beta_rad_per_pa,
+    }
+    errors = {
+        k: float(abs(static[j] / fe_vals[k] - 1)) for j, k in enumerate(OUTPUTS) if fe_vals[k] is not None
+    }
+    passed = max(errors["umbo_m"], errors["stapes_m"]) <= args.tolerance
+    check = {
+        "freq_hz": float(freq[0]),
+        "compared_with": "lumped static limit (0 Hz); FE values are static, marked at the lowest frequency",
+        **{f"fe_{k}": [float(v), 0.0] for k, v in fe_vals.items() if v is not None},
+        **{f"lumped_static_{k}": float(static[j]) for j, k in enumerate(OUTPUTS)},
+        **{f"{k}_rel_error": e for k, e in errors.items()},
+        "passed": passed,
+    }
+
+    header = "freq_hz," + ",".join(f"{k}_re,{k}_im,{k}_abs,{k}_phase_deg" for k in OUTPUTS)
+    cols = [freq]
+    for j in range(len(OUTPUTS)):
+        h = H[:, j]
+        cols += [h.real, h.imag, np.abs(h), np.degrees(np.unwrap(np.angle(h)))]
+    table = np.column_stack(cols)
+    joint_label = "rigid joint" if args.rigid_joint else "calibrated joint"
+    units = (
+        "# units: freq_hz Hz; umbo_m, stapes_m m per Pa of ear-canal pressure; "
+        f"alpha_rad, beta_rad rad per Pa; phase deg; {joint_label}\n"
+    )
+    atomic_write_text(
+        out / "ear_sweep.csv",
+        units + header + "\n" + "\n".join(",".join(f"{v:.9g}" for v in row) for row in table) + "\n",
+    )
+
+    def write_npz(tmp):
+        with open(tmp, "wb") as fh:
+            np.savez(
+                fh,
+                freq_hz=freq,
+                response_per_pa=H,
+                static_per_pa=static,
+                outputs=np.array(OUTPUTS),
+                units=np.array([UNITS[k] for k in OUTPUTS]),
+                natural_freq_hz=poles_hz,
+                damping_ratio=zeta,
+            )
+
+    atomic_write(out / "ear_sweep.npz", write_npz)
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(2, 1, sharex=True, figsize=(7, 6))
+    bode(freq, H[:, :2], [check], outputs=("umbo_m", "stapes_m"), axes=axes)
+    axes[0].set_ylabel("magnitude (m/Pa)")
+    axes[0].set_title("lumped cat middle ear per Pa; FE whole-ear static at the lowest frequency", fontsize=9)
+    fig.tight_layout()
+    atomic_write(out / "ear_bode.png", lambda tmp: fig.savefig(tmp, format="png"))
+    plt.close(fig)
+
+    summary = {
+        "n_freq": int(args.n),
+        "rigid_joint": bool(args.rigid_joint),
+        "coordinates": list(lumped.coordinates),
+        "natural_freq_hz": [float(v) for v in poles_hz],
+        "damping_ratio": [float(v) for v in zeta],
+        "static_per_pa": {k: float(static[j]) for j, k in enumerate(OUTPUTS)},
+        "fe_check": check,
+        "fe_n_dofs": fe_model.n_dofs,
+        "passed": passed,
+        "tolerance": args.tolerance,
+        "timings_s": {"lumped": t1 - t0, "fe": t2 - t1},
+    }
+    write_run_record(out / "ear_sweep.json", args, summary)
+    if args.json:
+        print(json.dumps(summary))
+    else:
+        print(
+            f"lumped ear {args.fmin_hz:g}-{args.fmax_hz:g} Hz ({args.n} points); natural frequencies "
+            + ", ".join(f"{v:.0f} Hz" for v in poles_hz)
+        )
+        print(
+            f"  static: umbo {static[0] * 1e9:.2f} nm/Pa (FE {fe_vals['umbo_m'] * 1e9:.2f}, "
+            f"{100 * errors['umbo_m']:.2f} %), stapes {static[1] * 1e9:.2f} nm/Pa "
+            f"(FE {fe_vals['stapes_m'] * 1e9:.2f}, {100 * errors['stapes_m']:.2f} %) "
+            f"{'ok' if passed else 'EXCEEDS tolerance'}"
+        )
+        print(f"wrote {out}/ear_sweep.csv, ear_sweep.npz, ear_bode.png, ear_sweep.json")
+    if not passed:
+        print(f"isj: error: the FE spot check exceeds the tolerance {args.tolerance:g}", file=sys.stderr)
+        return 1
+    return 0
+
+
+def _add_band_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--fmin-hz", type=_float("--fmin-hz", lo=0.0), default=100.0, help="lowest frequency (Hz)")
+    p.add_argument("--fmax-hz", type=_float("--fmax-hz", lo=0.0), default=20e3, help="highest frequency (Hz)")
+    p.add_argument("--n", type=int, default=200, help="frequencies, log-spaced, in [2, 100000] (default 200)")
+
+
+def _add_damping_options(p: argparse.ArgumentParser) -> None:
+    """Damping of spec 4 (Rayleigh a, b; loss factor) and the lumped model's calibration."""
+    p.add_argument(
+        "--rayleigh-a",
+        metavar="PER_S",
+        type=_float("--rayleigh-a", lo=0.0, lo_open=False),
+        default=0.0,
+        help="Rayleigh mass coefficient a (1/s; default 0)",
+    )
+    p.add_argument(
+        "--rayleigh-b",
+        metavar="S",
+        type=_float("--rayleigh-b", lo=0.0, lo_open=False),
+        default=1e-4,
+        help="Rayleigh stiffness coefficient b (s; default 1e-4)",
+    )
+    p.add_argument(
+        "--loss-factor",
+        type=_float("--loss-factor", lo=0.0, lo_open=False),
+        default=0.0,
+        help="structural loss factor eta (default 0)",
+    )
+    p.add_argument("--calibration", metavar="PATH", help="calibration file (default: the shipped one)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="isj", description="Mechanics of the incus-stapes coupling.")
     parser.add_argument("--version", action="version", version=f"isj {__version__}")
@@ -925,9 +1096,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("sweep", help="damped frequency response: lumped curves, FE spot checks (spec 4)")
     _add_design_options(p)
     _add_mesh_options(p)
-    p.add_argument("--fmin-hz", type=_float("--fmin-hz", lo=0.0), default=100.0, help="lowest frequency (Hz)")
-    p.add_argument("--fmax-hz", type=_float("--fmax-hz", lo=0.0), default=20e3, help="highest frequency (Hz)")
-    p.add_argument("--n", type=int, default=200, help="frequencies, log-spaced (default 200)")
+    _add_band_options(p)
     p.add_argument("--fe-checks", type=int, default=2, help="FE harmonic spot checks K (default 2)")
     p.add_argument(
         "--tolerance",
@@ -935,27 +1104,7 @@ def build_parser() -> argparse.ArgumentParser:
         default=0.05,
         help="largest relative error of an FE check (default 0.05)",
     )
-    p.add_argument(
-        "--rayleigh-a",
-        metavar="PER_S",
-        type=_float("--rayleigh-a", lo=0.0, lo_open=False),
-        default=0.0,
-        help="Rayleigh mass coefficient a (1/s; default 0)",
-    )
-    p.add_argument(
-        "--rayleigh-b",
-        metavar="S",
-        type=_float("--rayleigh-b", lo=0.0, lo_open=False),
-        default=1e-4,
-        help="Rayleigh stiffness coefficient b (s; default 1e-4)",
-    )
-    p.add_argument(
-        "--loss-factor",
-        type=_float("--loss-factor", lo=0.0, lo_open=False),
-        default=0.0,
-        help="structural loss factor eta (default 0)",
-    )
-    p.add_argument("--calibration", metavar="PATH", help="calibration file (default: the shipped one)")
+    _add_damping_options(p)
     p.add_argument("--out", metavar="DIR", default="sweep", help="output folder (default ./sweep)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=_cmd_sweep)
@@ -1014,6 +1163,18 @@ def build_parser() -> argparse.ArgumentParser:
     p = esub.add_parser("cases", help="the seven thesis cases inside the ear")
     _add_ear_options(p)
     p.set_defaults(func=_cmd_ear_cases)
+    p = esub.add_parser("sweep", help="lumped ear's frequency response per Pa, FE static spot check")
+    _add_ear_options(p)
+    _add_band_options(p)
+    p.add_argument(
+        "--tolerance",
+        type=_float("--tolerance", lo=0.0),
+        default=0.1,
+        help="largest relative error of the static umbo and stapes against the FE ear (default 0.1)",
+    )
+    _add_damping_options(p)
+    p.add_argument("--out", metavar="DIR", default="ear_sweep", help="output folder (default ./ear_sweep)")
+    p.set_defaults(func=_cmd_ear_sweep)
     return parser
 
 

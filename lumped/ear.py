@@ -1,0 +1,436 @@
+"""A lumped cat ossicular chain (spec §5 anatomy, spec §4 dynamics): umbo and stapes per Pa.
+
+Second-order model M q̈ + E q̇ + K(1 + iη) q = B p, y = C q (``SecondOrderModel``
+of :mod:`lumped.dynamics`), input p the ear-canal pressure (Pa), SI units.
+
+Coordinates q (the ear's frame, :mod:`isj.ear`):
+
+- ``u_x, u_y, u_z, th_x, th_y, th_z``: the malleus–incus body as one rigid body,
+  its translation (m) and rotation (rad) at :attr:`isj.ear.EarGeometry.body_reference_m`,
+  on the ligament springs (as the FE ear: the anterior mallear ligament as three
+  springs of k/3 along x, y, z; each incudal bundle isotropic, k I). With
+  ``body="rotation"`` the body only turns about its nominal axis (the ligament line,
+  ``th_axis``, the textbook one-dof ossicle); the FE body's axis, free to move, then
+  lies elsewhere, and the umbo comes out ≈ 17 % low (measured, see ``tests/test_lumped_ear.py``).
+- ``alpha``, ``beta`` (rad): the joint's and the pedicle's relative rotations about
+  the joint model's y axis, hinges at the joint's mid-plane z_j = (z_gap + z_plate)/2
+  and at the pedicle's z_p = z_pedicle + h L (h the calibrated hinge fraction),
+  exactly as in :func:`lumped.dynamics.chain_model`, whose rotational springs
+  k_j = P (z_load − z_j) / α_P and k_p = P (z_load − z_p) / β_P (N·m/rad) reproduce
+  the calibrated static α_P, β_P (:func:`lumped.model.equations`) under the isolated
+  model's load. **Mapping into the ear**: the incus carries the parts above the
+  pedicle's hinge; the plate turns by −β relative to it about the hinge point
+  head + z_p ẑ_joint; the stapes (head, crura, footplate: one rigid body) turns by a
+  further −α about head + z_j ẑ_joint. Everything else in the coupling is rigid:
+  no axial (piston-direction) compliance, no bending about the joint's x axis, no
+  torsion, because the calibrated model gives none of them. Dropped with
+  ``rigid_joint=True`` (the FE ear's ``joint=None``).
+- ``w`` (m): the eardrum's uncoupled part, the mean displacement over the ring's
+  outline area A_r = π a b of the drum's shape under pressure with the manubrium held
+  (volume A_r w, compliance C_d, acoustic mass M_a).
+
+The drum: its part that moves with the manubrium is condensed exactly (statics)
+onto the body's six dofs: a 6-vector of load per Pa (the effective area), a
+6 × 6 stiffness and mass (:class:`EardrumParameters`, measured on the FE drum by
+:func:`fem.ear.lumped_params.eardrum_parameters`). The stapes's footplate is rigid,
+on the annular ligament + cochlear load: ``annular_springs`` point springs on its
+elliptical outline (11 N/m out of plane, 9.9 N/m in plane, spec §5), as the FE ear.
+
+Masses (estimates unless stated): eardrum from the FE shell's consistent mass
+(density 1200 kg/m³, an estimate; 2.07 mg over the drum's surface);
+malleus + incus 6 mg, an estimate (no cat value found here), centroid at the body's
+reference point, radius of gyration 1.0 mm (estimate); stapes 0.5 mg (estimate),
+centroid 0.3 of the crura's height above the footplate, radius of gyration 0.4 mm
+(estimate); the pedicle-and-joint regions (micrograms) are neglected.
+
+Damping as :mod:`lumped.dynamics`: Rayleigh E = a M + b K (spec §4 defaults
+a = 0, b = 1e-4 s) and/or a loss factor η.
+
+Outputs per Pa (:data:`OUTPUTS`): the umbo's displacement along its static
+direction of motion (m; its static value is the magnitude of the umbo's
+displacement vector, the FE ear's ``umbo_m_per_pa``), the stapes's piston
+(footplate centre along the piston direction, m), α and β (rad; zero for the rigid
+joint).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+from isj.design import Geometry, InvalidParameter
+from isj.ear import EarGeometry, EarMaterials
+
+from .dynamics import DEFAULT_HINGE_FRACTION, SecondOrderModel, chain_model
+
+OUTPUTS = ("umbo_m", "stapes_m", "alpha_rad", "beta_rad")
+UNITS = {"umbo_m": "m/Pa", "stapes_m": "m/Pa", "alpha_rad": "rad/Pa", "beta_rad": "rad/Pa"}
+BODY_COORDINATES = ("u_x", "u_y", "u_z", "th_x", "th_y", "th_z")
+
+
+@dataclass(frozen=True)
+class EardrumParameters:
+    """The eardrum condensed onto the malleus–incus body (SI).
+
+    Parameters
+    ----------
+    load_per_pa : (6,) generalized force on the body's (u, θ) at ``reference_m`` per Pa
+        (N/Pa, N·m/Pa), manubrium held; by reciprocity the drum's volume displacement
+        per unit body motion (m², m³/rad): the effective area
+    stiffness : (6, 6) the drum's stiffness against the body's motion (N/m, N, N·m/rad)
+    mass : (6, 6) kinetic-energy mass of the drum's shapes that follow the body (kg, kg·m, kg·m²)
+    cross_mass : (6,) mass coupling of those shapes with the uncoupled unit-volume shape
+        (kg/m², kg/m)
+    compliance_m3_per_pa : volume displacement per Pa with the manubrium held (m³/Pa)
+    uncoupled_mass_kg_m4 : acoustic mass of that shape (kg/m⁴)
+    reference_m : (3,) the body's reference point the 6-vectors refer to (m)
+    drum_e_pa : eardrum modulus they were measured with (Pa)
+    drum_mass_kg : ρ t × surface area (kg), for information
+    """
+
+    load_per_pa: tuple
+    stiffness: tuple
+    mass: tuple
+    cross_mass: tuple
+    compliance_m3_per_pa: float
+    uncoupled_mass_kg_m4: float
+    reference_m: tuple
+    drum_e_pa: float
+    drum_mass_kg: float = float("nan")
+
+    def __post_init__(self) -> None:
+        shapes = {"load_per_pa": (6,), "stiffness": (6, 6), "mass": (6, 6), "cross_mass": (6,)}
+        for name, shape in {**shapes, "reference_m": (3,)}.items():
+            a = np.asarray(getattr(self, name), dtype=float)
+            if a.shape != shape or not np.all(np.isfinite(a)):
+                raise InvalidParameter(f"{name}: must be finite numbers of shape {shape}")
+            object.__setattr__(self, name, tuple(map(tuple, a)) if a.ndim == 2 else tuple(a))
+        for name in ("compliance_m3_per_pa", "uncoupled_mass_kg_m4", "drum_e_pa"):
+            v = getattr(self, name)
+            if not np.isfinite(v) or v <= 0:
+                raise InvalidParameter(f"{name} = {v!r}: must be a finite number > 0")
+
+    @classmethod
+    def from_dict(cls, d: dict) -> EardrumParameters:
+        """From :func:`fem.ear.lumped_params.eardrum_parameters`' dict (extra keys ignored)."""
+        names = {f.name for f in dataclasses.fields(cls)}
+        return cls(**{k: v for k, v in d.items() if k in names})
+
+    def with_modulus(self, drum_e_pa: float) -> EardrumParameters:
+        """The same drum with modulus ``drum_e_pa`` (Pa): exact, stiffness ∝ E and compliance ∝ 1/E."""
+        if not np.isfinite(drum_e_pa) or drum_e_pa <= 0:
+            raise InvalidParameter(f"drum_e_pa = {drum_e_pa!r} Pa: must be a finite number > 0")
+        s = drum_e_pa / self.drum_e_pa
+        return dataclasses.replace(
+            self,
+            stiffness=s * np.asarray(self.stiffness),
+            compliance_m3_per_pa=self.compliance_m3_per_pa / s,
+            drum_e_pa=float(drum_e_pa),
+        )
+
+
+#: Measured by :func:`fem.ear.lumped_params.eardrum_parameters` for the default
+#: :class:`isj.ear.EarGeometry` and :class:`isj.ear.EarMaterials` (E = 20 MPa, ν = 0.3,
+#: 40 µm), the FE ear's default drum mesh (0.25 mm, ≈ 1600 triangles) and density
+#: 1200 kg/m³ (an estimate), 8 significant digits. ``tests/test_lumped_ear.py``
+#: re-measures them. On the nominal axis they amount to an effective area of
+#: 22.3 mm² per umbo displacement, a drum stiffness at the umbo of 385 N/m, a volume
+#: compliance with the manubrium held of 1.65e-12 m³/Pa.
+DEFAULT_EARDRUM = EardrumParameters(
+    load_per_pa=(
+        1.3332806e-05,
+        -8.1955579e-09,
+        -3.1437875e-05,
+        2.4542363e-11,
+        -9.8567888e-08,
+        -1.8494707e-12,
+    ),
+    stiffness=(
+        (1237.9323, -3.8414331, 68.342705, 0.0091792063, 2.8550737, 0.0030472777),
+        (-3.8414331, 727.91282, -0.86873428, -1.6525544, -0.0097484367, -0.70318053),
+        (68.342705, -0.86873428, 99.122374, 0.0020965462, 0.36876969, 0.00061857442),
+        (0.0091792063, -1.6525544, 0.0020965462, 0.0038646312, 2.3186937e-05, 0.0012923707),
+        (2.8550737, -0.0097484367, 0.36876969, 2.3186937e-05, 0.0075065764, 7.9858181e-06),
+        (0.0030472777, -0.70318053, 0.00061857442, 0.0012923707, 7.9858181e-06, 0.0015423913),
+    ),
+    mass=(
+        (1.5039761e-06, -2.0577252e-09, -5.5255344e-07, 3.8023902e-12, -3.4552167e-10, 4.4887772e-12),
+        (-2.0577252e-09, 2.2428913e-06, -3.3660034e-11, -3.3828273e-09, -3.1210749e-12, -6.792539e-09),
+        (-5.5255344e-07, -3.3660034e-11, 1.5674587e-06, -5.4591225e-13, 5.0848505e-09, 1.338513e-12),
+        (3.8023902e-12, -3.3828273e-09, -5.4591225e-13, 5.3552848e-12, 2.8753046e-15, 9.6100116e-12),
+        (-3.4552167e-10, -3.1210749e-12, 5.0848505e-09, 2.8753046e-15, 1.9962165e-11, 1.1102071e-14),
+        (4.4887772e-12, -6.792539e-09, 1.338513e-12, 9.6100116e-12, 1.1102071e-14, 2.2198423e-11),
+    ),
+    cross_mass=(0.038613061, -0.00013227428, -0.045926691, 2.42984e-07, -0.00015141287, 3.7057137e-07),
+    compliance_m3_per_pa=1.6463089e-12,
+    uncoupled_mass_kg_m4=2453.0921,
+    reference_m=(4.3e-3, 0.0, -2.5e-3),
+    drum_e_pa=20e6,
+    drum_mass_kg=2.073949e-06,
+)
+
+
+@dataclass(frozen=True)
+class OssicleMasses:
+    """Masses (kg) and radii of gyration (m) of the ossicles: all estimates (see the module docstring).
+
+    Parameters
+    ----------
+    malleus_incus_kg : 6 mg (estimate)
+    malleus_incus_gyration_m : isotropic radius of gyration about its centroid, 1.0 mm (estimate)
+    malleus_incus_centroid_m : centroid (m); None: the body's reference point (estimate)
+    stapes_kg : 0.5 mg (estimate)
+    stapes_gyration_m : 0.4 mm (estimate)
+    stapes_centroid_fraction : centroid's height above the footplate / crura height, 0.3 (estimate)
+    """
+
+    malleus_incus_kg: float = 6e-6
+    malleus_incus_gyration_m: float = 1.0e-3
+    malleus_incus_centroid_m: tuple | None = None
+    stapes_kg: float = 0.5e-6
+    stapes_gyration_m: float = 0.4e-3
+    stapes_centroid_fraction: float = 0.3
+
+    def __post_init__(self) -> None:
+        for name in ("malleus_incus_kg", "malleus_incus_gyration_m", "stapes_kg", "stapes_gyration_m"):
+            v = getattr(self, name)
+            if not isinstance(v, int | float) or not np.isfinite(v) or v < 0:
+                raise InvalidParameter(f"{name} = {v!r}: must be a finite number >= 0")
+        f = self.stapes_centroid_fraction
+        if not isinstance(f, int | float) or not 0 <= f <= 1:
+            raise InvalidParameter(f"stapes_centroid_fraction = {f!r}: must lie in [0, 1]")
+
+
+def _skew(r) -> np.ndarray:
+    x, y, z = r
+    return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
+
+
+def _point_map(point, reference) -> np.ndarray:
+    """(3, 6) map from a rigid body's (u, θ) at ``reference`` to a point's displacement."""
+    return np.hstack([np.eye(3), -_skew(np.asarray(point, float) - np.asarray(reference, float))])
+
+
+def _springs(reference, points, k3) -> np.ndarray:
+    """6 × 6 stiffness about ``reference`` of grounded point springs (k3: (P, 3, 3), N/m)."""
+    return sum(
+        _point_map(p, reference).T @ k @ _point_map(p, reference) for p, k in zip(points, k3, strict=True)
+    )
+
+
+def _rigid_mass(mass, gyration, centroid, reference) -> np.ndarray:
+    G = _point_map(centroid, reference)
+    rot = np.zeros((3, 6))
+    rot[:, 3:] = np.eye(3)
+    return mass * G.T @ G + mass * gyration**2 * rot.T @ rot
+
+
+def nominal_axis(g: EarGeometry) -> tuple[np.ndarray, np.ndarray]:
+    """Point (m) and unit direction of the nominal axis: mallear ligament → the incudal bundles' midpoint."""
+    p = np.asarray(g.malleus_ligament_m, dtype=float)
+    d = 0.5 * (np.asarray(g.incudal_lateral_m) + np.asarray(g.incudal_medial_m)) - p
+    return p, d / np.linalg.norm(d)
+
+
+@dataclass(frozen=True)
+class LumpedEar:
+    """The lumped ear for one design or many (leading design axis), per Pa of ear-canal pressure.
+
+    Attributes
+    ----------
+    system : the second-order model (input: pressure, Pa; outputs :data:`OUTPUTS`)
+    coordinates : names of q
+    umbo_direction : (3,) or (n_design, 3) unit direction of the umbo's static motion
+    """
+
+    system: SecondOrderModel
+    coordinates: tuple[str, ...]
+    umbo_direction: np.ndarray
+
+    @property
+    def batched(self) -> bool:
+        return self.system.M.ndim == 3
+
+    def static_response(self, pressure_pa: float = 1.0) -> np.ndarray:
+        """Static outputs (:data:`OUTPUTS`), (4,) or (n_design, 4): K q = B p, y = C q (SI)."""
+        s = self.system
+        q = np.linalg.solve(s.K, s.B)
+        return (s.C @ q)[..., 0] * pressure_pa
+
+    def freq_resp(self, freq_hz, pressure_pa: float = 1.0) -> np.ndarray:
+        """Complex outputs at ``freq_hz`` (Hz): (n_freq, 4) or (n_design, n_freq, 4) (SI)."""
+        return self.system.freq_resp(freq_hz)[..., 0] * pressure_pa
+
+    def natural_frequencies_hz(self) -> tuple[np.ndarray, np.ndarray]:
+        """Undamped natural frequencies (Hz) and modal damping ratios, sorted."""
+        return self.system.poles()
+
+
+def ear_model(
+    factors=None,
+    hinge_fraction: float | None = None,
+    *,
+    geometry: EarGeometry | None = None,
+    joint_geometry: Geometry | None = None,
+    ear_materials: EarMaterials | None = None,
+    eardrum: EardrumParameters | None = None,
+    masses: OssicleMasses | None = None,
+    rigid_joint: bool = False,
+    body: str = "rigid",
+    rayleigh_a_per_s: float = 0.0,
+    rayleigh_b_s: float = 1e-4,
+    loss_factor: float = 0.0,
+    **moduli,
+) -> LumpedEar:
+    """Assemble the lumped ear (see the module docstring) for one design or arrays of moduli.
+
+    Parameters
+    ----------
+    factors : calibrated static factors (``lumped.model.FACTOR_NAMES`` order); None: the
+        shipped calibration's
+    hinge_fraction : the pedicle's hinge fraction; None: the calibration's (or 1/3)
+    geometry, ear_materials : the ear's anatomy (m) and springs (N/m); the drum's modulus in
+        ``ear_materials`` rescales ``eardrum`` (exact)
+    joint_geometry : the joint model's dimensions (m); its z_top must equal
+        ``geometry.joint_length_m``
+    eardrum : the drum's condensed parameters (default :data:`DEFAULT_EARDRUM`, valid for the
+        default anatomy; measure others with :func:`fem.ear.lumped_params.eardrum_parameters`)
+    masses : ossicle masses (kg) and radii of gyration (m), estimates
+    rigid_joint : no α, β coordinates (a rigid incus–stapes connection)
+    body : "rigid" (six dofs) or "rotation" (one rotation about the nominal axis)
+    rayleigh_a_per_s, rayleigh_b_s, loss_factor : damping (1/s, s, dimensionless), spec §4
+    **moduli : the joint model's moduli (Pa), floats or broadcastable arrays (``lumped.model.MODULI``)
+    """
+    g = geometry or EarGeometry()
+    jg = joint_geometry or Geometry()
+    mat = ear_materials or EarMaterials()
+    drum = (eardrum or DEFAULT_EARDRUM).with_modulus(mat.drum_e_pa)
+    ms = masses or OssicleMasses()
+    if body not in ("rigid", "rotation"):
+        raise InvalidParameter(f"body = {body!r}: must be 'rigid' or 'rotation'")
+    for name, v in (("rayleigh_a_per_s", rayleigh_a_per_s), ("rayleigh_b_s", rayleigh_b_s)):
+        if not np.isfinite(v) or v < 0:
+            raise InvalidParameter(f"{name} = {v!r}: must be a finite number >= 0")
+    if not np.isfinite(loss_factor) or loss_factor < 0:
+        raise InvalidParameter(f"loss_factor = {loss_factor!r}: must be a finite number >= 0")
+    if abs(jg.z_top - g.joint_length_m) > 1e-9 * jg.z_top:
+        raise InvalidParameter(
+            f"joint_length_m = {g.joint_length_m!r} m: must equal the joint geometry's z_top = {jg.z_top!r} m"
+        )
+    x_b = np.asarray(g.body_reference_m, dtype=float)
+    if np.linalg.norm(np.asarray(drum.reference_m) - x_b) > 1e-9:
+        raise InvalidParameter(
+            f"eardrum.reference_m = {drum.reference_m!r}: must be the body's reference point {tuple(x_b)!r} m"
+        )
+
+    # ---- coordinates: body, [alpha, beta], w
+    if body == "rigid":
+        Jb = np.eye(6)
+        names = list(BODY_COORDINATES)
+    else:
+        p0, e = nominal_axis(g)
+        Jb = np.concatenate([np.cross(e, x_b - p0), e])[:, None]
+        names = ["th_axis"]
+    nb = Jb.shape[1]
+    joint = not rigid_joint
+    if joint:
+        names += ["alpha", "beta"]
+    names.append("w")
+    n = len(names)
+    ia = nb  # alpha, beta at ia, ia + 1
+    iw = n - 1
+    body_map = np.zeros((6, n))  # body (u, θ) at x_b from q
+    body_map[:, :nb] = Jb
+
+    # the stapes as a rigid body: (u, θ) at the footplate's centre F from q
+    F = np.asarray(g.footplate_centre_m, dtype=float)
+    head = np.asarray(g.stapes_head_m, dtype=float)
+    jy, jz = np.asarray(g.joint_y_direction), np.asarray(g.joint_z_direction)
+    z_j = (jg.z_gap + jg.z_plate) / 2
+    if joint:
+        from .artifact import default_calibration
+
+        if factors is None or hinge_fraction is None:
+            cal = default_calibration()
+            factors = cal.factor_array() if factors is None else factors
+            if hinge_fraction is None:
+                hinge_fraction = cal.dynamics.get("hinge_fraction", DEFAULT_HINGE_FRACTION)
+        z_p = jg.z_pedicle + hinge_fraction * jg.pedicle_length_m
+    stapes_map = np.zeros((6, n))
+    stapes_map[:3] = _point_map(F, x_b) @ body_map
+    stapes_map[3:] = body_map[3:]
+    if joint:
+        for i, z in ((ia, z_j), (ia + 1, z_p)):  # −α about head + z_j ẑ, −β about head + z_p ẑ
+            hinge = head + z * jz
+            stapes_map[:3, i] = -np.cross(jy, F - hinge)
+            stapes_map[3:, i] = -jy
+
+    # ---- stiffness
+    pts = np.array([g.malleus_ligament_m, g.incudal_lateral_m, g.incudal_medial_m])
+    k3 = np.array(
+        [
+            mat.malleus_ligament_n_m / 3 * np.eye(3),
+            mat.incudal_lateral_n_m * np.eye(3),
+            mat.incudal_medial_n_m * np.eye(3),
+        ]
+    )
+    K_body = _springs(x_b, pts, k3) + np.asarray(drum.stiffness)
+    nrm = np.asarray(g.piston_direction)
+    long_m, short_m = g.footplate_semi_axes_m
+    e_long = np.asarray(g.footplate_long_axis)
+    e_short = np.cross(nrm, e_long)
+    phi = 2 * np.pi * np.arange(g.annular_springs) / g.annular_springs
+    outline = F + np.outer(long_m * np.cos(phi), e_long) + np.outer(short_m * np.sin(phi), e_short)
+    k_ann = mat.annular_out_of_plane_n_m * np.outer(nrm, nrm) + mat.annular_in_plane_n_m * (
+        np.eye(3) - np.outer(nrm, nrm)
+    )
+    K_stapes = _springs(F, outline, np.broadcast_to(k_ann, (len(outline), 3, 3)))
+    area_ring = np.pi * g.drum_semi_axis_manubrium_m * g.drum_semi_axis_transverse_m
+    K0 = body_map.T @ K_body @ body_map + stapes_map.T @ K_stapes @ stapes_map
+    K0[iw, iw] += area_ring**2 / drum.compliance_m3_per_pa
+    if joint:
+        Kj = chain_model(factors, hinge_fraction, geometry=jg, rayleigh_b_s=0.0, **moduli).K
+        Kj = Kj if Kj.ndim == 3 else Kj[None]
+        K = np.broadcast_to(K0, (len(Kj), n, n)).copy()
+        K[:, ia : ia + 2, ia : ia + 2] += Kj
+    else:
+        K = K0[None]
+
+    # ---- mass
+    centroid = x_b if ms.malleus_incus_centroid_m is None else np.asarray(ms.malleus_incus_centroid_m, float)
+    M_body = np.asarray(drum.mass) + _rigid_mass(
+        ms.malleus_incus_kg, ms.malleus_incus_gyration_m, centroid, x_b
+    )
+    c_s = F - ms.stapes_centroid_fraction * g.crura_height_m * nrm
+    M = body_map.T @ M_body @ body_map
+    M += stapes_map.T @ _rigid_mass(ms.stapes_kg, ms.stapes_gyration_m, c_s, F) @ stapes_map
+    cross = body_map.T @ np.asarray(drum.cross_mass) * area_ring
+    M[:, iw] += cross
+    M[iw, :] += cross
+    M[iw, iw] += drum.uncoupled_mass_kg_m4 * area_ring**2
+
+    # ---- load and outputs
+    Bq = np.zeros((n, 1))
+    Bq[:, 0] = body_map.T @ np.asarray(drum.load_per_pa)
+    Bq[iw, 0] += area_ring
+    umbo_map = _point_map(g.umbo_m, x_b) @ body_map  # (3, n)
+    nd = K.shape[0]
+    q_static = np.linalg.solve(K, np.broadcast_to(Bq, (nd, n, 1)))[..., 0]
+    u_umbo = q_static @ umbo_map.T  # (nd, 3)
+    d_umbo = u_umbo / np.linalg.norm(u_umbo, axis=1, keepdims=True)
+    C = np.zeros((nd, 4, n))
+    C[:, 0] = d_umbo @ umbo_map
+    C[:, 1] = nrm @ stapes_map[:3]
+    if joint:
+        C[:, 2, ia], C[:, 3, ia + 1] = 1.0, 1.0
+    single = not joint or all(np.ndim(v) == 0 for v in moduli.values())
+    Mb = np.broadcast_to(M, (nd, n, n)).copy()
+    Bb = np.broadcast_to(Bq, (nd, n, 1)).copy()
+    if single:
+        K, Mb, Bb, C, d_umbo = K[0], Mb[0], Bb[0], C[0], d_umbo[0]
+    system = SecondOrderModel(
+        M=Mb, E=rayleigh_a_per_s * Mb + rayleigh_b_s * K, K=K, B=Bb, C=C, loss_factor=loss_factor
+    )
+    return LumpedEar(system=system, coordinates=tuple(names), umbo_direction=d_umbo)
