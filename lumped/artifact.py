@@ -17,7 +17,7 @@ import numpy as np
 
 from .model import FACTOR_NAMES
 
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2  # 2: the plate_support factor (lumped.model)
 
 
 class CorruptCalibration(ValueError):
