@@ -30,7 +30,9 @@ class Calibration:
 
     ``domain`` maps a modulus name to its [low, high] bounds (Pa);
     ``training``/``validation`` hold error statistics (relative, e.g.
-    ``max_alpha``); ``fe_settings`` the FE model the factors were fitted to.
+    ``max_alpha``); ``fe_settings`` the FE model the factors were fitted to;
+    ``dynamics`` the dynamic chain's calibration (``shear_factor`` and its f1, f2
+    errors, :func:`calibration.pipeline.calibrate_dynamics`), optional.
     """
 
     factors: dict[str, float]
@@ -44,6 +46,19 @@ class Calibration:
 
     def factor_array(self) -> np.ndarray:
         return np.array([self.factors[n] for n in FACTOR_NAMES], dtype=float)
+
+    @property
+    def shear_factor(self) -> float:
+        """The chain's joint shear factor (dimensionless) for :func:`lumped.dynamics.chain_model`.
+
+        A calibration without one in ``dynamics`` (none fitted, or an older file whose
+        dynamics held the former two-hinge chain's ``hinge_fraction``) still loads: the
+        physical estimate 1.0 (:data:`lumped.dynamics.DEFAULT_SHEAR_FACTOR`) is used then, with
+        the chain's second natural frequency ≈ 15 % high on the default design.
+        """
+        from .dynamics import DEFAULT_SHEAR_FACTOR
+
+        return float(self.dynamics.get("shear_factor", DEFAULT_SHEAR_FACTOR))
 
     def outside(self, designs: dict) -> dict[str, np.ndarray]:
         """Per modulus, a boolean array: which designs lie outside the calibrated domain."""
@@ -73,6 +88,12 @@ class Calibration:
             raise CorruptCalibration(f"{source}: factor(s) {', '.join(bad)} not finite and >= 0")
         if any(not (0 < lo <= hi) for lo, hi in domain.values()):
             raise CorruptCalibration(f"{source}: domain bounds must satisfy 0 < low <= high")
+        dynamics = d.get("dynamics", {})
+        if not isinstance(dynamics, dict):
+            raise CorruptCalibration(f"{source}: dynamics must be a JSON object")
+        shear = dynamics.get("shear_factor", 1.0)
+        if not isinstance(shear, int | float) or not (math.isfinite(shear) and shear > 0):
+            raise CorruptCalibration(f"{source}: dynamics.shear_factor = {shear!r}, must be finite and > 0")
         return cls(
             factors=factors,
             domain=domain,
@@ -80,7 +101,7 @@ class Calibration:
             validation=dict(d.get("validation", {})),
             fe_settings=dict(d.get("fe_settings", {})),
             provenance=dict(d.get("provenance", {})),
-            dynamics=dict(d.get("dynamics", {})),
+            dynamics=dict(dynamics),
         )
 
     @classmethod

@@ -13,15 +13,20 @@ Coordinates q (the ear's frame, :mod:`isj.ear`):
   ``th_axis``, the textbook one-dof ossicle); the FE body's axis, free to move, then
   lies elsewhere, and the umbo comes out ≈ 17 % low (measured, see ``tests/test_lumped_ear.py``).
 - ``alpha``, ``beta`` (rad): the joint's and the pedicle's relative rotations about
-  the joint model's y axis, hinges at the joint's mid-plane z_j = (z_gap + z_plate)/2
-  and at the pedicle's z_p = z_pedicle + h L (h the calibrated hinge fraction),
-  exactly as in :func:`lumped.dynamics.chain_model`, whose rotational springs
-  k_j = P (z_load − z_j) / α_P and k_p = P (z_load − z_p) / β_P (N·m/rad) reproduce
-  the calibrated static α_P, β_P (:func:`lumped.model.equations`) under the isolated
-  model's load. **Mapping into the ear**: the incus carries the parts above the
-  pedicle's hinge; the plate turns by −β relative to it about the hinge point
-  head + z_p ẑ_joint; the stapes (head, crura, footplate: one rigid body) turns by a
-  further −α about head + z_j ẑ_joint. Everything else in the coupling is rigid:
+  the joint model's y axis, as in :func:`lumped.dynamics.chain_model` (α the joint's
+  rotation about its mid-plane z_j = (z_gap + z_plate)/2, β = the pedicle's root and top
+  rotations plus its tip's rotation as a Timoshenko cantilever). The chain's joint and
+  pedicle springs, massless here, are condensed exactly onto (α, β)
+  (:func:`lumped.dynamics.joint_coupling`): a 2 × 2 stiffness and the incus's rigid motion
+  relative to the stapes per unit α and β (an x translation at z_j and a rotation), so
+  that the pedicle's effective pivot follows the load the ear puts on it; under the
+  isolated model's load they give the calibrated static α_P, β_P
+  (:func:`lumped.model.equations`). The chain's joint shear (calibrated on the isolated
+  model's second mode only) and the stapes head's bending are left out of the ear.
+  **Mapping into the ear**: the stapes (head, crura, footplate: one rigid body) moves
+  relative to the incus by minus that relative motion, about and along the joint
+  model's axes placed at the stapes head (``EarGeometry.stapes_head_m``, z along
+  ``joint_z_direction``, x along ``joint_x_direction``). Everything else in the coupling is rigid:
   no axial (piston-direction) compliance, no bending about the joint's x axis, no
   torsion, because the calibrated model gives none of them. Dropped with
   ``rigid_joint=True`` (the FE ear's ``joint=None``).
@@ -63,7 +68,7 @@ import numpy as np
 from isj.design import Geometry, InvalidParameter
 from isj.ear import EarGeometry, EarMaterials
 
-from .dynamics import DEFAULT_HINGE_FRACTION, SecondOrderModel, chain_model
+from .dynamics import SecondOrderModel, joint_coupling
 
 OUTPUTS = ("umbo_m", "stapes_m", "alpha_rad", "beta_rad")
 UNITS = {"umbo_m": "m/Pa", "stapes_m": "m/Pa", "alpha_rad": "rad/Pa", "beta_rad": "rad/Pa"}
@@ -270,7 +275,6 @@ class LumpedEar:
 
 def ear_model(
     factors=None,
-    hinge_fraction: float | None = None,
     *,
     geometry: EarGeometry | None = None,
     joint_geometry: Geometry | None = None,
@@ -290,7 +294,6 @@ def ear_model(
     ----------
     factors : calibrated static factors (``lumped.model.FACTOR_NAMES`` order); None: the
         shipped calibration's
-    hinge_fraction : the pedicle's hinge fraction; None: the calibration's (or 1/3)
     geometry, ear_materials : the ear's anatomy (m) and springs (N/m); the drum's modulus in
         ``ear_materials`` rescales ``eardrum`` (exact)
     joint_geometry : the joint model's dimensions (m); its z_top must equal
@@ -352,20 +355,21 @@ def ear_model(
     if joint:
         from .artifact import default_calibration
 
-        if factors is None or hinge_fraction is None:
-            cal = default_calibration()
-            factors = cal.factor_array() if factors is None else factors
-            if hinge_fraction is None:
-                hinge_fraction = cal.dynamics.get("hinge_fraction", DEFAULT_HINGE_FRACTION)
-        z_p = jg.z_pedicle + hinge_fraction * jg.pedicle_length_m
-    stapes_map = np.zeros((6, n))
-    stapes_map[:3] = _point_map(F, x_b) @ body_map
-    stapes_map[3:] = body_map[3:]
-    if joint:
-        for i, z in ((ia, z_j), (ia + 1, z_p)):  # −α about head + z_j ẑ, −β about head + z_p ẑ
-            hinge = head + z * jz
-            stapes_map[:3, i] = -np.cross(jy, F - hinge)
-            stapes_map[3:, i] = -jy
+        if factors is None:
+            factors = default_calibration().factor_array()
+        coupling = joint_coupling(factors, jg, **moduli)
+    nd = coupling.stiffness.shape[0] if joint else 1
+    stapes_map = np.zeros((nd, 6, n))
+    stapes_map[:, :3] = _point_map(F, x_b) @ body_map
+    stapes_map[:, 3:] = body_map[3:]
+    if joint:  # the stapes moves by −d relative to the incus, d = motion @ (α, β) (per design)
+        jx = np.asarray(g.joint_x_direction, dtype=float)
+        per_d = np.zeros((6, 2))  # stapes (u at F, θ) per unit d = (u_x at head + z_j ẑ, rotation)
+        per_d[:3, 0] = -jx
+        per_d[:3, 1] = -np.cross(jy, F - (head + z_j * jz))
+        per_d[3:, 1] = -jy
+        stapes_map[:, :, ia : ia + 2] = per_d @ coupling.motion
+    stapes_t = np.swapaxes(stapes_map, -1, -2)
 
     # ---- stiffness
     pts = np.array([g.malleus_ligament_m, g.incudal_lateral_m, g.incudal_medial_m])
@@ -388,15 +392,10 @@ def ear_model(
     )
     K_stapes = _springs(F, outline, np.broadcast_to(k_ann, (len(outline), 3, 3)))
     area_ring = np.pi * g.drum_semi_axis_manubrium_m * g.drum_semi_axis_transverse_m
-    K0 = body_map.T @ K_body @ body_map + stapes_map.T @ K_stapes @ stapes_map
-    K0[iw, iw] += area_ring**2 / drum.compliance_m3_per_pa
+    K = body_map.T @ K_body @ body_map + stapes_t @ K_stapes @ stapes_map  # (nd, n, n)
+    K[:, iw, iw] += area_ring**2 / drum.compliance_m3_per_pa
     if joint:
-        Kj = chain_model(factors, hinge_fraction, geometry=jg, rayleigh_b_s=0.0, **moduli).K
-        Kj = Kj if Kj.ndim == 3 else Kj[None]
-        K = np.broadcast_to(K0, (len(Kj), n, n)).copy()
-        K[:, ia : ia + 2, ia : ia + 2] += Kj
-    else:
-        K = K0[None]
+        K[:, ia : ia + 2, ia : ia + 2] += coupling.stiffness
 
     # ---- mass
     centroid = x_b if ms.malleus_incus_centroid_m is None else np.asarray(ms.malleus_incus_centroid_m, float)
@@ -405,28 +404,27 @@ def ear_model(
     )
     c_s = F - ms.stapes_centroid_fraction * g.crura_height_m * nrm
     M = body_map.T @ M_body @ body_map
-    M += stapes_map.T @ _rigid_mass(ms.stapes_kg, ms.stapes_gyration_m, c_s, F) @ stapes_map
+    M = M + stapes_t @ _rigid_mass(ms.stapes_kg, ms.stapes_gyration_m, c_s, F) @ stapes_map  # (nd, n, n)
     cross = body_map.T @ np.asarray(drum.cross_mass) * area_ring
-    M[:, iw] += cross
-    M[iw, :] += cross
-    M[iw, iw] += drum.uncoupled_mass_kg_m4 * area_ring**2
+    M[:, :, iw] += cross
+    M[:, iw, :] += cross
+    M[:, iw, iw] += drum.uncoupled_mass_kg_m4 * area_ring**2
 
     # ---- load and outputs
     Bq = np.zeros((n, 1))
     Bq[:, 0] = body_map.T @ np.asarray(drum.load_per_pa)
     Bq[iw, 0] += area_ring
     umbo_map = _point_map(g.umbo_m, x_b) @ body_map  # (3, n)
-    nd = K.shape[0]
     q_static = np.linalg.solve(K, np.broadcast_to(Bq, (nd, n, 1)))[..., 0]
     u_umbo = q_static @ umbo_map.T  # (nd, 3)
     d_umbo = u_umbo / np.linalg.norm(u_umbo, axis=1, keepdims=True)
     C = np.zeros((nd, 4, n))
     C[:, 0] = d_umbo @ umbo_map
-    C[:, 1] = nrm @ stapes_map[:3]
+    C[:, 1] = nrm @ stapes_map[:, :3]
     if joint:
         C[:, 2, ia], C[:, 3, ia + 1] = 1.0, 1.0
     single = not joint or all(np.ndim(v) == 0 for v in moduli.values())
-    Mb = np.broadcast_to(M, (nd, n, n)).copy()
+    Mb = M
     Bb = np.broadcast_to(Bq, (nd, n, 1)).copy()
     if single:
         K, Mb, Bb, C, d_umbo = K[0], Mb[0], Bb[0], C[0], d_umbo[0]

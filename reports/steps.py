@@ -268,7 +268,7 @@ def sweep_step(ctx: Context) -> tuple[dict, dict]:
     moduli = cfg.design.moduli()
     model = chain_model(
         cal.factor_array(),
-        cal.dynamics.get("hinge_fraction", 1 / 3),
+        cal.shear_factor,
         cfg.geometry,
         cfg.design.materials(),
         rayleigh_a_per_s=s.rayleigh_a_per_s,
@@ -280,7 +280,7 @@ def sweep_step(ctx: Context) -> tuple[dict, dict]:
     H = frequency_response(model, freq, cfg.design.pressure_pa)
     poles_hz, zeta = model.poles()
     undamped = chain_model(
-        cal.factor_array(), cal.dynamics.get("hinge_fraction", 1 / 3), cfg.geometry, cfg.design.materials(),
+        cal.factor_array(), cal.shear_factor, cfg.geometry, cfg.design.materials(),
         rayleigh_b_s=0.0, **moduli,
     )  # fmt: skip
     f_lumped, _ = undamped.poles()
@@ -329,7 +329,7 @@ def sweep_step(ctx: Context) -> tuple[dict, dict]:
         "fe_in_plane_modes_hz": fe_modes["in_plane_freq_hz"],
         "fe_mode_y_to_x": fe_modes["y_to_x_fraction"],
         "fe_checks": checks,
-        "hinge_fraction": cal.dynamics.get("hinge_fraction"),
+        "shear_factor": cal.shear_factor,
     }, arrays
 
 
@@ -343,7 +343,10 @@ def ear_step(ctx: Context) -> tuple[dict, dict]:
     joint, _ = shared_model(ctx.settings)
     base = cfg.design.materials()
     ear = MiddleEarModel(joint=joint)
-    cases = {c.name: ear.solve(c.materials(base), cfg.ear) for c in THESIS_CASES}
+    from tqdm import tqdm
+
+    bar = tqdm(THESIS_CASES, desc="whole ear, 7 cases", unit="case", disable=not ctx.progress, leave=False)
+    cases = {c.name: ear.solve(c.materials(base), cfg.ear) for c in bar}
     rigid_model = MiddleEarModel(joint=None, geometry=ear.geometry)
     rigid = rigid_model.solve(base, cfg.ear)
     res0 = cases[THESIS_CASES[0].name]
