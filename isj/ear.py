@@ -315,6 +315,78 @@ class EarMaterials:
         return dataclasses.replace(self, **changes)
 
 
+@dataclass(frozen=True)
+class EarMasses:
+    """Mass data of the whole ear (kg, m, kg/m³), read by both the FE and the lumped ear.
+
+    All estimates (no cat values found here) except the bone density, spec §4's default.
+
+    Parameters
+    ----------
+    drum_density_kg_m3 : pars tensa, 1200 kg/m³ (estimate); the shell's consistent mass.
+        :data:`lumped.ear.DEFAULT_EARDRUM` was measured with this value.
+    footplate_density_kg_m3 : the FE footplate shell's density, bone, 2000 kg/m³
+        (spec §4, :attr:`isj.design.Materials.bone_density_kg_m3`). The footplate is part of
+        the stapes: its shell mass is taken out of ``stapes_kg`` (see ``stapes_kg``).
+    malleus_incus_kg : 6 mg (estimate)
+    malleus_incus_gyration_m : isotropic radius of gyration about its centroid, 1.0 mm (estimate)
+    malleus_incus_centroid_m : centroid (m); None: the body's reference point
+        :attr:`EarGeometry.body_reference_m` (estimate)
+    stapes_kg : the whole stapes (head, crura and footplate), 0.5 mg (estimate). The lumped ear
+        has one rigid stapes of this mass; the FE ear's stapes superstructure (a rigid body)
+        carries ``stapes_kg`` minus its footplate shell's mass, at the centroid that puts the
+        whole stapes's centroid where ``stapes_centroid_fraction`` says.
+    stapes_gyration_m : radius of gyration about the centroid, 0.4 mm (estimate); in the FE ear,
+        that of the superstructure about its own centroid (the footplate shell adds its own).
+    stapes_centroid_fraction : height of the whole stapes's centroid above the footplate's
+        mid-plane / :attr:`EarGeometry.crura_height_m`: 0.3 (estimate)
+    """
+
+    drum_density_kg_m3: float = 1200.0
+    footplate_density_kg_m3: float = 2000.0
+    malleus_incus_kg: float = 6e-6
+    malleus_incus_gyration_m: float = 1.0e-3
+    malleus_incus_centroid_m: Vector | None = None
+    stapes_kg: float = 0.5e-6
+    stapes_gyration_m: float = 0.4e-3
+    stapes_centroid_fraction: float = 0.3
+
+    def __post_init__(self) -> None:
+        for name, unit in (
+            ("drum_density_kg_m3", "kg/m^3"),
+            ("footplate_density_kg_m3", "kg/m^3"),
+            ("malleus_incus_kg", "kg"),
+            ("malleus_incus_gyration_m", "m"),
+            ("stapes_kg", "kg"),
+            ("stapes_gyration_m", "m"),
+        ):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v) or v < 0:
+                raise InvalidParameter(f"{name} = {v!r} {unit}: must be a finite number >= 0")
+        if self.malleus_incus_centroid_m is not None:
+            c = _check_vector("malleus_incus_centroid_m", self.malleus_incus_centroid_m)
+            object.__setattr__(self, "malleus_incus_centroid_m", c)
+        f = self.stapes_centroid_fraction
+        if isinstance(f, bool) or not isinstance(f, int | float) or not 0 <= f <= 1:
+            raise InvalidParameter(f"stapes_centroid_fraction = {f!r}: must lie in [0, 1]")
+
+    def malleus_incus_centroid(self, geometry: EarGeometry) -> Vector:
+        """The malleus–incus body's centroid (m): ``malleus_incus_centroid_m`` or the reference point."""
+        c = self.malleus_incus_centroid_m
+        return geometry.body_reference_m if c is None else c
+
+    def stapes_centroid(self, geometry: EarGeometry) -> Vector:
+        """The whole stapes's centroid (m): ``stapes_centroid_fraction`` of the crura's height
+        above the footplate's centre, towards the stapes head."""
+        h = self.stapes_centroid_fraction * geometry.crura_height_m
+        return tuple(
+            p - h * d for p, d in zip(geometry.footplate_centre_m, geometry.piston_direction, strict=True)
+        )
+
+    def replace(self, **changes) -> EarMasses:
+        return dataclasses.replace(self, **changes)
+
+
 #: Experimental cat references at low frequency, per Pa of ear-canal pressure (spec §5):
 #: umbo ≈ 53 nm/Pa (Guinan & Peake 1967); stapes 25–30 nm/Pa (Guinan & Peake 1967),
 #: ≈ 30 nm/Pa (Decraemer et al. 2000).

@@ -66,7 +66,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from isj.design import Geometry, InvalidParameter
-from isj.ear import EarGeometry, EarMaterials
+from isj.ear import EarGeometry, EarMasses, EarMaterials
 
 from .dynamics import SecondOrderModel, joint_coupling
 
@@ -177,35 +177,8 @@ DEFAULT_EARDRUM = EardrumParameters(
 )
 
 
-@dataclass(frozen=True)
-class OssicleMasses:
-    """Masses (kg) and radii of gyration (m) of the ossicles: all estimates (see the module docstring).
-
-    Parameters
-    ----------
-    malleus_incus_kg : 6 mg (estimate)
-    malleus_incus_gyration_m : isotropic radius of gyration about its centroid, 1.0 mm (estimate)
-    malleus_incus_centroid_m : centroid (m); None: the body's reference point (estimate)
-    stapes_kg : 0.5 mg (estimate)
-    stapes_gyration_m : 0.4 mm (estimate)
-    stapes_centroid_fraction : centroid's height above the footplate / crura height, 0.3 (estimate)
-    """
-
-    malleus_incus_kg: float = 6e-6
-    malleus_incus_gyration_m: float = 1.0e-3
-    malleus_incus_centroid_m: tuple | None = None
-    stapes_kg: float = 0.5e-6
-    stapes_gyration_m: float = 0.4e-3
-    stapes_centroid_fraction: float = 0.3
-
-    def __post_init__(self) -> None:
-        for name in ("malleus_incus_kg", "malleus_incus_gyration_m", "stapes_kg", "stapes_gyration_m"):
-            v = getattr(self, name)
-            if not isinstance(v, int | float) or not np.isfinite(v) or v < 0:
-                raise InvalidParameter(f"{name} = {v!r}: must be a finite number >= 0")
-        f = self.stapes_centroid_fraction
-        if not isinstance(f, int | float) or not 0 <= f <= 1:
-            raise InvalidParameter(f"stapes_centroid_fraction = {f!r}: must lie in [0, 1]")
+#: The ossicles' masses: :class:`isj.ear.EarMasses` (one place for the FE and the lumped ear).
+OssicleMasses = EarMasses
 
 
 def _skew(r) -> np.ndarray:
@@ -280,7 +253,7 @@ def ear_model(
     joint_geometry: Geometry | None = None,
     ear_materials: EarMaterials | None = None,
     eardrum: EardrumParameters | None = None,
-    masses: OssicleMasses | None = None,
+    masses: EarMasses | None = None,
     rigid_joint: bool = False,
     body: str = "rigid",
     rayleigh_a_per_s: float = 0.0,
@@ -300,7 +273,8 @@ def ear_model(
         ``geometry.joint_length_m``
     eardrum : the drum's condensed parameters (default :data:`DEFAULT_EARDRUM`, valid for the
         default anatomy; measure others with :func:`fem.ear.lumped_params.eardrum_parameters`)
-    masses : ossicle masses (kg) and radii of gyration (m), estimates
+    masses : ossicle masses (kg) and radii of gyration (m), estimates (:class:`isj.ear.EarMasses`;
+        its densities are not read: the drum's mass is ``eardrum``'s, the footplate is in ``stapes_kg``)
     rigid_joint : no α, β coordinates (a rigid incus–stapes connection)
     body : "rigid" (six dofs) or "rotation" (one rotation about the nominal axis)
     rayleigh_a_per_s, rayleigh_b_s, loss_factor : damping (1/s, s, dimensionless), spec §4
@@ -310,7 +284,7 @@ def ear_model(
     jg = joint_geometry or Geometry()
     mat = ear_materials or EarMaterials()
     drum = (eardrum or DEFAULT_EARDRUM).with_modulus(mat.drum_e_pa)
-    ms = masses or OssicleMasses()
+    ms = masses or EarMasses()
     if body not in ("rigid", "rotation"):
         raise InvalidParameter(f"body = {body!r}: must be 'rigid' or 'rotation'")
     for name, v in (("rayleigh_a_per_s", rayleigh_a_per_s), ("rayleigh_b_s", rayleigh_b_s)):
@@ -398,11 +372,11 @@ def ear_model(
         K[:, ia : ia + 2, ia : ia + 2] += coupling.stiffness
 
     # ---- mass
-    centroid = x_b if ms.malleus_incus_centroid_m is None else np.asarray(ms.malleus_incus_centroid_m, float)
+    centroid = np.asarray(ms.malleus_incus_centroid(g), dtype=float)
     M_body = np.asarray(drum.mass) + _rigid_mass(
         ms.malleus_incus_kg, ms.malleus_incus_gyration_m, centroid, x_b
     )
-    c_s = F - ms.stapes_centroid_fraction * g.crura_height_m * nrm
+    c_s = np.asarray(ms.stapes_centroid(g), dtype=float)
     M = body_map.T @ M_body @ body_map
     M = M + stapes_t @ _rigid_mass(ms.stapes_kg, ms.stapes_gyration_m, c_s, F) @ stapes_map  # (nd, n, n)
     cross = body_map.T @ np.asarray(drum.cross_mass) * area_ring

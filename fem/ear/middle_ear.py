@@ -26,6 +26,10 @@ Parts and their dofs (one full vector, SI units):
 Variant ``joint=None``: the joint replaced by a rigid connection; the stapes
 superstructure is then part of the malleus–incus body (small and fast).
 
+Dynamics (mass from :class:`isj.ear.EarMasses`, spec §4 damping, harmonic response per
+Pa, natural frequencies): :mod:`fem.ear.ear_dynamics`, also as :meth:`MiddleEarModel.mass`,
+:meth:`MiddleEarModel.harmonic` and :meth:`MiddleEarModel.natural_frequencies`.
+
 Everything that does not depend on the moduli is built once: meshes, the
 constraint map T, the pattern of Tᵀ K T and the map from the entries' values
 to it (:class:`fem.ear.reduction.ReducedPattern`), the solver's analysis, the
@@ -41,7 +45,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from isj.design import Materials
-from isj.ear import EarGeometry, EarMaterials
+from isj.ear import EarGeometry, EarMasses, EarMaterials
 
 from .constraints import rigid_body_modes
 from .eardrum import EardrumGeometry, ear_canal_load, eardrum_mesh
@@ -50,8 +54,9 @@ from .reduction import ConstraintBuilder, ReducedPattern
 from .rigid import axis_of_rotation, grounded_springs, point_map
 from .shell import NDOF, ShellMaterial, _element_dofs, element_stiffness
 
-#: Density of the pars tensa (kg/m³), as :data:`fem.ear.eardrum.PARS_TENSA` (estimate); statics ignore it.
-DRUM_DENSITY_KG_M3 = 1200.0
+#: Density of the pars tensa (kg/m³), :attr:`isj.ear.EarMasses.drum_density_kg_m3` (estimate);
+#: statics ignore it, :mod:`fem.ear.ear_dynamics` reads :class:`isj.ear.EarMasses`.
+DRUM_DENSITY_KG_M3 = EarMasses().drum_density_kg_m3
 
 
 def eardrum_geometry(g: EarGeometry, mesh_size_m: float = 0.25e-3) -> EardrumGeometry:
@@ -374,6 +379,42 @@ class MiddleEarModel:
             materials=materials,
             displacement=u,
         )
+
+    # ------------------------------------------------------------------ dynamics
+
+    def mass(
+        self, materials: Materials | None = None, ear_materials: EarMaterials | None = None, masses=None
+    ):
+        """Reduced mass Tᵀ M T (CSR, SI) on the stiffness's pattern (:func:`.ear_dynamics.reduced_mass`)."""
+        from .ear_dynamics import reduced_mass
+
+        return reduced_mass(self, materials, ear_materials, masses)
+
+    def harmonic(
+        self,
+        freq_hz,
+        materials: Materials | None = None,
+        ear_materials: EarMaterials | None = None,
+        damping=None,
+        masses=None,
+        pressure_pa: float = 1.0,
+    ):
+        """Damped response per Pa at ``freq_hz`` (Hz): :func:`fem.ear.ear_dynamics.harmonic`."""
+        from .ear_dynamics import harmonic
+
+        return harmonic(self, freq_hz, materials, ear_materials, damping, masses, pressure_pa)
+
+    def natural_frequencies(
+        self,
+        n: int = 6,
+        materials: Materials | None = None,
+        ear_materials: EarMaterials | None = None,
+        masses=None,
+    ):
+        """The ``n`` lowest natural frequencies (Hz), modes (:func:`.ear_dynamics.natural_frequencies`)."""
+        from .ear_dynamics import natural_frequencies
+
+        return natural_frequencies(self, n, materials, ear_materials, masses)
 
     def solve_cases(
         self, cases=None, ear_materials: EarMaterials | None = None

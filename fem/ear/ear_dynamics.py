@@ -1,0 +1,419 @@
+"""Dynamics of the whole cat middle ear (spec §4, §5): mass, harmonic response per Pa, natural frequencies.
+
+On the reduced system of :class:`fem.ear.middle_ear.MiddleEarModel` (u = T q):
+
+    (K_r (1 + iη) + iω (a M_r + b K_r) − ω² M_r) q̂ = f_r p̂,   K_r = Tᵀ K T, M_r = Tᵀ M T,
+
+spec §4's damping (Rayleigh a = 0, b = 1e-4 s by default; loss factor η = 0), f_r
+the reduced load of 1 Pa of ear-canal pressure.
+
+Mass data (:class:`isj.ear.EarMasses`, the one place the lumped ear
+:mod:`lumped.ear` reads too; all estimates but the bone density):
+
+- eardrum: the shell's consistent mass, density 1200 kg/m³ (rotary inertia lumped,
+  :func:`fem.ear.shell.mass_matrix`), as the lumped ear's condensed drum;
+- footplate: the shell's consistent mass, bone, 2000 kg/m³ (spec §4), centre 20 µm
+  and rim 200 µm thick;
+- malleus + incus: 6 mg, isotropic radius of gyration 1.0 mm about its centroid (the
+  body's reference point by default), a 6 × 6 rigid-body mass at the reference point:
+  m GᵀG + m r_g² diag(0, I) with G = [I, −[c − x₀]×];
+- stapes: 0.5 mg for the whole stapes, the lumped ear's one rigid stapes. Here the
+  footplate shell carries its own mass (≈ 0.2 mg by default, measured on the mesh), the
+  superstructure's rigid body the rest, at the centroid that puts the whole stapes's
+  centroid where :meth:`isj.ear.EarMasses.stapes_centroid` says (0.3 of the crura's
+  height above the footplate), radius of gyration 0.4 mm about its own centroid. So the
+  stapes's mass and first moment equal the lumped ear's; its rotary inertia does not (the
+  footplate's distributed inertia is anisotropic; :func:`stapes_rigid_mass` gives both);
+- the embedded joint model's regions (bone 2000, soft tissue 1100 kg/m³,
+  :meth:`isj.design.Materials.density`): its consistent mass
+  (:meth:`fem.model.PedicleJointModel.mass_data`); the lumped ear neglects them.
+
+Every mass entry lies on an entry of K's pattern, so M_r is stored on K_r's CSR
+pattern and Z = αK_r + βM_r is one axpy on the data; the complex symmetric Z is
+factored by PARDISO (mtype 6, analysed once per call) or SuperLU; the static solution
+(first, for the umbo's direction) comes from the same solver, the model's static one untouched.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from isj.design import InvalidParameter, Materials
+from isj.ear import EarMasses, EarMaterials
+
+from ..dynamics import Damping
+from .constraints import rigid_body_modes
+from .rigid import point_map
+from .shell import ShellMaterial
+from .shell import mass_matrix as shell_mass_matrix
+
+#: Output names, as :data:`lumped.ear.OUTPUTS`: umbo along its static direction (m/Pa), stapes
+#: piston (m/Pa), α and β (rad/Pa; zero for the rigid joint).
+OUTPUTS = ("umbo_m", "stapes_m", "alpha_rad", "beta_rad")
+
+
+@dataclass(frozen=True)
+class EarDamping(Damping):
+    """The isolated model's damping law (spec §4): Rayleigh a (1/s), b (s), loss factor η."""
+
+    @property
+    def damped(self) -> bool:
+        return self.rayleigh_a_per_s > 0 or self.rayleigh_b_s > 0 or self.loss_factor > 0
+
+
+def rigid_mass(mass_kg: float, gyration_m: float, centroid_m, reference_m) -> np.ndarray:
+    """6 × 6 mass (kg, kg·m, kg·m²) of a rigid body at ``reference_m`` for its (u, θ) dofs.
+
+    Mass ``mass_kg`` at ``centroid_m`` (m) with isotropic rotary inertia m r_g² about it:
+    m GᵀG + m r_g² diag(0, I), G = [I, −[c − x₀]×].
+    """
+    G = point_map(centroid_m, reference_m)[0]
+    M = mass_kg * G.T @ G
+    M[3:, 3:] += mass_kg * gyration_m**2 * np.eye(3)
+    return M
+
+
+def _check_freqs(freq_hz) -> np.ndarray:
+    f = np.atleast_1d(np.asarray(freq_hz, dtype=float))
+    if f.ndim != 1 or f.size == 0 or np.any(~np.isfinite(f)) or np.any(f < 0):
+        raise InvalidParameter("freq_hz: must be one or more finite numbers >= 0 (Hz)")
+    return f
+
+
+def footplate_mass_matrix(model, ear_materials: EarMaterials | None = None, masses: EarMasses | None = None):
+    """The footplate shell's consistent mass (6N × 6N CSR; kg, kg·m²): centre and rim thicknesses."""
+    g, fp = model.geometry, model.footplate
+    m = ear_materials or EarMaterials()
+    rho = (masses or EarMasses()).footplate_density_kg_m3
+    if rho == 0:
+        return sp.csr_matrix((6 * len(fp.nodes_m),) * 2)
+    out = None
+    for tris, t in (
+        (fp.triangles[~fp.rim], g.footplate_centre_thickness_m),
+        (fp.triangles[fp.rim], g.footplate_rim_thickness_m),
+    ):
+        Mi = shell_mass_matrix(fp.nodes_m, tris, ShellMaterial(m.footplate_e_pa, m.footplate_nu, t, rho))
+        out = Mi if out is None else out + Mi
+    return out.tocsr()
+
+
+def stapes_rigid_mass(model, ear_materials: EarMaterials | None = None, masses: EarMasses | None = None):
+    """How the FE ear splits the stapes's mass, and its 6 × 6 rigid mass against the lumped ear's.
+
+    Returns
+    -------
+    dict: ``footplate_kg``, ``footplate_centroid_m`` (3,), ``superstructure_kg``,
+    ``superstructure_centroid_m`` (3,), ``fe_6x6`` and ``lumped_6x6`` (the whole stapes moving
+    rigidly, at the footplate's centre, SI), as arrays.
+    Raises InvalidParameter when the footplate shell alone outweighs ``stapes_kg``.
+    """
+    g = model.geometry
+    ms = masses or EarMasses()
+    F = np.asarray(g.footplate_centre_m)
+    R = rigid_body_modes(model.footplate.nodes_m, F)
+    M6_fp = R.T @ (footplate_mass_matrix(model, ear_materials, ms) @ R)
+    m_fp = float(M6_fp[0, 0])
+    S = -M6_fp[:3, 3:] / m_fp if m_fp > 0 else np.zeros((3, 3))  # = −[c − F]× ... skew(c − F)
+    c_fp = F + np.array([S[2, 1], S[0, 2], S[1, 0]])
+    m_sup = ms.stapes_kg - m_fp
+    if m_sup < 0:
+        raise InvalidParameter(
+            f"stapes_kg = {ms.stapes_kg!r} kg: must be >= the footplate shell's mass {m_fp:.4g} kg "
+            f"(footplate_density_kg_m3 = {ms.footplate_density_kg_m3!r})"
+        )
+    c_s = np.asarray(ms.stapes_centroid(g))
+    c_sup = (ms.stapes_kg * c_s - m_fp * c_fp) / m_sup if m_sup > 0 else c_s
+    fe = M6_fp + rigid_mass(m_sup, ms.stapes_gyration_m, c_sup, F)
+    return {
+        "footplate_kg": m_fp,
+        "footplate_centroid_m": c_fp,
+        "superstructure_kg": m_sup,
+        "superstructure_centroid_m": c_sup,
+        "fe_6x6": fe,
+        "lumped_6x6": rigid_mass(ms.stapes_kg, ms.stapes_gyration_m, c_s, F),
+    }
+
+
+def full_mass(
+    model,
+    materials: Materials | None = None,
+    ear_materials: EarMaterials | None = None,
+    masses: EarMasses | None = None,
+) -> sp.csr_matrix:
+    """Unconstrained M (n_full × n_full CSR, SI) of the whole ear, before elimination."""
+    g = model.geometry
+    em = ear_materials or EarMaterials()
+    ms = masses or EarMasses()
+    d = model.drum
+    parts = []  # (coo block, offset)
+    if ms.drum_density_kg_m3 > 0:
+        drum = ShellMaterial(em.drum_e_pa, em.drum_nu, em.drum_thickness_m, ms.drum_density_kg_m3)
+        parts.append((shell_mass_matrix(d.nodes_m, d.triangles, drum).tocoo(), model.off_drum))
+    parts.append((footplate_mass_matrix(model, em, ms).tocoo(), model.off_fp))
+    rows = [p.row.astype(np.int64) + off for p, off in parts]
+    cols = [p.col.astype(np.int64) + off for p, off in parts]
+    vals = [p.data for p, _ in parts]
+    x_body = np.asarray(g.body_reference_m)
+    x_stapes = np.asarray(g.stapes_head_m) if model.joint is not None else x_body
+    st = stapes_rigid_mass(model, em, ms)
+    blocks = (
+        (model.body_dofs, rigid_mass(ms.malleus_incus_kg, ms.malleus_incus_gyration_m,
+                                     ms.malleus_incus_centroid(g), x_body)),
+        (model.stapes_dofs, rigid_mass(st["superstructure_kg"], ms.stapes_gyration_m,
+                                       st["superstructure_centroid_m"], x_stapes)),
+    )  # fmt: skip
+    for dofs, M6 in blocks:
+        rows.append(np.repeat(dofs, 6))
+        cols.append(np.tile(dofs, 6))
+        vals.append(M6.ravel())
+    if model.joint is not None:
+        j = model.joint
+        vals.append(j.mass_data(materials or Materials()))
+        rows.append(j.pattern.rows().astype(np.int64) + model.off_joint)
+        cols.append(j.pattern.indices.astype(np.int64) + model.off_joint)
+    M = sp.coo_matrix(
+        (np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(model.n_full,) * 2
+    )
+    return M.tocsr()
+
+
+def _data_on_pattern(A: sp.csr_matrix, indptr, indices) -> np.ndarray:
+    """A's values on a CSR pattern (sorted) that contains A's nonzeros."""
+    n = len(indptr) - 1
+    A = sp.csr_matrix(A)
+    A.sum_duplicates()
+    A.sort_indices()
+    kp = np.repeat(np.arange(n, dtype=np.int64), np.diff(indptr)) * n + indices
+    ka = np.repeat(np.arange(n, dtype=np.int64), np.diff(A.indptr)) * n + A.indices
+    pos = np.minimum(np.searchsorted(kp, ka), kp.size - 1)
+    ok = kp[pos] == ka
+    if not np.all(ok | (A.data == 0)):
+        raise RuntimeError("the reduced mass has entries outside the reduced stiffness's pattern")
+    out = np.zeros(kp.size)
+    np.add.at(out, pos[ok], A.data[ok])
+    return out
+
+
+def reduced_mass(
+    model,
+    materials: Materials | None = None,
+    ear_materials: EarMaterials | None = None,
+    masses: EarMasses | None = None,
+) -> sp.csr_matrix:
+    """Tᵀ M T (CSR, SI) on the pattern of :meth:`MiddleEarModel.stiffness` (cached per inputs)."""
+    key = (materials or Materials(), ear_materials or EarMaterials(), masses or EarMasses())
+    cache = model.__dict__.setdefault("_mass_cache", {})
+    if key not in cache:
+        Mf = full_mass(model, *key)
+        Mr = (model.T.T @ Mf @ model.T).tocsr()
+        p = model.pattern
+        data = _data_on_pattern(Mr, p.indptr, p.indices)
+        cache.clear()  # one entry: a new set of inputs replaces the old
+        cache[key] = sp.csr_matrix((data, p.indices, p.indptr), shape=(p.n, p.n))
+    return cache[key]
+
+
+@dataclass
+class EarHarmonicResult:
+    """Complex response of the whole ear per Pa of ear-canal pressure at each frequency (SI).
+
+    Attributes
+    ----------
+    freq_hz : (n,) frequencies (Hz)
+    umbo_m_per_pa : (n,) umbo displacement along its static direction of motion (m/Pa)
+    stapes_m_per_pa : (n,) footplate centre's displacement along the piston direction (m/Pa)
+    alpha_rad_per_pa, beta_rad_per_pa : (n,) joint and pedicle angles (rad/Pa); None for the
+        rigid joint
+    umbo_vector_m_per_pa, footplate_m_per_pa : (n, 3) complex displacement vectors (m/Pa)
+    umbo_direction : (3,) the umbo's static direction of motion
+    static : the static solution (:class:`fem.ear.middle_ear.EarStaticResult`)
+    timings_s : seconds (stiffness_mass; factor_solve for all frequencies and the static one;
+        per_frequency)
+    """
+
+    freq_hz: np.ndarray
+    umbo_m_per_pa: np.ndarray
+    stapes_m_per_pa: np.ndarray
+    alpha_rad_per_pa: np.ndarray | None
+    beta_rad_per_pa: np.ndarray | None
+    umbo_vector_m_per_pa: np.ndarray
+    footplate_m_per_pa: np.ndarray
+    umbo_direction: np.ndarray
+    static: object = None
+    timings_s: dict = field(default_factory=dict)
+    displacement: np.ndarray | None = field(default=None, repr=False)
+
+    def outputs(self) -> np.ndarray:
+        """(n, 4) complex, columns :data:`OUTPUTS` (α, β zero for the rigid joint), as the lumped ear's."""
+        n = self.freq_hz.size
+        a = np.zeros(n, complex) if self.alpha_rad_per_pa is None else self.alpha_rad_per_pa
+        b = np.zeros(n, complex) if self.beta_rad_per_pa is None else self.beta_rad_per_pa
+        return np.column_stack([self.umbo_m_per_pa, self.stapes_m_per_pa, a, b])
+
+    def to_dict(self) -> dict:
+        def c(v):
+            return None if v is None else [[float(x.real), float(x.imag)] for x in np.asarray(v)]
+
+        return {
+            "freq_hz": [float(f) for f in self.freq_hz],
+            **{f"{k}_re_im": c(getattr(self, f"{k}_per_pa")) for k in ("umbo_m", "stapes_m")},
+            "alpha_rad_re_im": c(self.alpha_rad_per_pa),
+            "beta_rad_re_im": c(self.beta_rad_per_pa),
+            "timings_s": dict(self.timings_s),
+        }
+
+
+def harmonic(
+    model,
+    freq_hz,
+    materials: Materials | None = None,
+    ear_materials: EarMaterials | None = None,
+    damping: EarDamping | None = None,
+    masses: EarMasses | None = None,
+    pressure_pa: float = 1.0,
+    keep_displacement: bool = False,
+) -> EarHarmonicResult:
+    """Damped harmonic response of the whole ear to ``pressure_pa`` (Pa) of ear-canal pressure.
+
+    Parameters
+    ----------
+    model : :class:`fem.ear.middle_ear.MiddleEarModel`
+    freq_hz : frequencies (Hz), >= 0
+    materials : the embedded joint's moduli and densities (ignored by the rigid joint)
+    ear_materials : eardrum, footplate and springs (spec §5)
+    damping : :class:`EarDamping` (default spec §4: Rayleigh b = 1e-4 s)
+    masses : :class:`isj.ear.EarMasses` (estimates)
+    keep_displacement : keep the full complex dof vectors (n_freq, n_full)
+
+    Returns
+    -------
+    :class:`EarHarmonicResult`, per Pa when ``pressure_pa`` = 1. One complex factorization
+    per frequency (its analysis shared by all frequencies).
+    """
+    from fem.solvers import make_complex_symmetric_solver, make_indefinite_solver
+
+    freqs = _check_freqs(freq_hz)
+    if not np.isfinite(pressure_pa):
+        raise InvalidParameter(f"pressure_pa = {pressure_pa!r} Pa: must be a finite number")
+    damping = damping or EarDamping()
+    materials = materials or Materials()
+    g = model.geometry
+    t0 = time.perf_counter()
+    K = model.stiffness(materials, ear_materials)
+    M = reduced_mass(model, materials, ear_materials, masses)
+    t1 = time.perf_counter()
+    t2 = time.perf_counter()
+    f = model.load_reduced * pressure_pa
+    w = 2 * np.pi * freqs
+    alpha = 1 + 1j * (damping.loss_factor + w * damping.rayleigh_b_s)
+    beta = 1j * w * damping.rayleigh_a_per_s - w**2
+    backend = "superlu" if model._solver_name == "superlu" else "auto"
+    # the static solver's ordering is not reused: a shared rigid-joint model crashed (SIGSEGV in
+    # PARDISO) in tests/test_lumped_ear.py after earlier static solves when it was; a fresh analysis
+    perm = None
+    solver = None
+    q = np.zeros((freqs.size, model.n_dofs), dtype=complex)
+    # the static solution (for the umbo's direction) by the same solver, first: the model's own
+    # static PARDISO solver is left alone (mixing it with other PARDISO instances crashed, SIGSEGV,
+    # in tests/test_lumped_ear.py)
+    alpha = np.concatenate([[1.0 + 0j], alpha])
+    beta = np.concatenate([[0j], beta])
+    try:
+        for i, (al, be) in enumerate(zip(alpha, beta, strict=True)):
+            if damping.damped:
+                Z = sp.csr_matrix((al * K.data + be * M.data, K.indices, K.indptr), shape=K.shape)
+            else:  # real symmetric indefinite
+                Z = sp.csr_matrix((K.data + be.real * M.data, K.indices, K.indptr), shape=K.shape)
+            if solver is None:
+                make = make_complex_symmetric_solver if damping.damped else make_indefinite_solver
+                solver = make(Z, backend, perm)
+            solver.factor(Z)
+            x = np.ravel(solver.solve(f))
+            if i == 0:
+                static = model.result(np.asarray(model.T @ x.real / pressure_pa), materials)
+                d_umbo = static.umbo_vector_m_per_pa / np.linalg.norm(static.umbo_vector_m_per_pa)
+            else:
+                q[i - 1] = x
+    finally:
+        if solver is not None:
+            solver.free()
+    t3 = time.perf_counter()
+    u = (model.T @ q.T).T  # (n_freq, n_full)
+    drum_umbo = model.drum.node_sets["umbo"][0]
+    fp_centre = model.footplate.node_sets["centre"][0]
+    ndof = 6
+    umbo = u[:, model.off_drum + ndof * drum_umbo : model.off_drum + ndof * drum_umbo + 3]
+    fp = u[:, model.off_fp + ndof * fp_centre : model.off_fp + ndof * fp_centre + 3]
+    alpha_r = beta_r = None
+    if model.joint is not None:
+        ang = model.joint.angles[:2] @ u[:, model.off_joint : model.off_body].T
+        alpha_r, beta_r = ang[0], ang[1]
+    return EarHarmonicResult(
+        freq_hz=freqs,
+        umbo_m_per_pa=umbo @ d_umbo,
+        stapes_m_per_pa=fp @ np.asarray(g.piston_direction),
+        alpha_rad_per_pa=alpha_r,
+        beta_rad_per_pa=beta_r,
+        umbo_vector_m_per_pa=umbo,
+        footplate_m_per_pa=fp,
+        umbo_direction=d_umbo,
+        static=static,
+        timings_s={
+            "stiffness_mass": t1 - t0,
+            "factor_solve": t3 - t2,
+            "per_frequency": (t3 - t2) / (freqs.size + 1),
+        },
+        displacement=u if keep_displacement else None,
+    )
+
+
+@dataclass
+class EarModes:
+    """Lowest natural frequencies (Hz) of the undamped whole ear and mass-normalised mode shapes.
+
+    Attributes
+    ----------
+    freq_hz : (n,) ascending
+    shapes_reduced : (n_dofs, n) q-vectors, M_r-orthonormal (qᵢᵀ M_r qⱼ = δᵢⱼ, kg^-1/2 m units)
+    shapes : (n_full, n) full dof vectors T q
+    """
+
+    freq_hz: np.ndarray
+    shapes_reduced: np.ndarray
+    shapes: np.ndarray
+
+
+def natural_frequencies(
+    model,
+    n: int = 6,
+    materials: Materials | None = None,
+    ear_materials: EarMaterials | None = None,
+    masses: EarMasses | None = None,
+) -> EarModes:
+    """The ``n`` lowest natural frequencies of K_r q = ω² M_r q (shift-invert Lanczos about 0)."""
+    from fem.solvers import make_solver
+
+    if isinstance(n, bool) or not isinstance(n, int | np.integer) or not 1 <= n < model.n_dofs - 1:
+        raise InvalidParameter(f"n = {n!r}: must be an integer in [1, {model.n_dofs - 2}]")
+    K = model.stiffness(materials, ear_materials)
+    M = reduced_mass(model, materials, ear_materials, masses)
+    solver = make_solver(K, model._solver_name)  # its own: the static solver's state is left alone
+    try:
+        solver.factor(K)
+        opinv = spla.LinearOperator(K.shape, matvec=lambda x: np.ravel(solver.solve(x)), dtype=float)
+        w2, vec = spla.eigsh(K, k=int(n), M=M, sigma=0.0, which="LM", OPinv=opinv, tol=1e-10)
+    finally:
+        if hasattr(solver, "free"):
+            solver.free()
+    order = np.argsort(w2)
+    w2, vec = w2[order], vec[:, order]
+    return EarModes(
+        freq_hz=np.sqrt(np.maximum(w2, 0.0)) / (2 * np.pi),
+        shapes_reduced=vec,
+        shapes=np.asarray(model.T @ vec),
+    )
