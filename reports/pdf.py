@@ -327,6 +327,12 @@ def calibration_page(fig, cal: dict):
         f"calibration: {cal['source']}; trained on FE P{fs.get('order')}, resolution {fs.get('resolution')}, "
         f"{fs.get('pressure_pa')} Pa"
     ]
+    rm = cal.get("report_mesh", {})
+    if rm and (rm.get("order") != fs.get("order") or rm.get("resolution") != fs.get("resolution")):
+        lines.append(
+            f"NOTE: this report's FE mesh (P{rm['order']}, resolution {rm['resolution']}) is not the one the "
+            "calibration was fitted on: the check's errors below include that mesh difference."
+        )
     if c["n"]:
         lines.append(
             f"fresh check on {c['n']} FE designs (Sobol, seed {c['seed']}): "

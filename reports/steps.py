@@ -250,6 +250,7 @@ def calibration_step(ctx: Context) -> tuple[dict, dict]:
         "training": cal.training,
         "validation": cal.validation,
         "fe_settings": {k: v for k, v in cal.fe_settings.items() if k != "geometry"},
+        "report_mesh": {"order": ctx.config.mesh.order, "resolution": ctx.config.mesh.resolution},
         "provenance": cal.provenance,
         "check": check,
         "points": points,

@@ -123,6 +123,7 @@ def test_pdf_text_carries_the_numbers_of_the_json(report):
     assert pdf.urad(cases["thesis_base"]["alpha_plus_beta_rad"]) in texts[2]
     cal = json.loads((data / "calibration.json").read_text())
     assert pdf.pct(cal["check"]["max_abs_alpha_rad"]) in texts[6]
+    assert "NOTE: this report's FE mesh (P2, resolution 0.35)" in texts[6]  # coarse, not the calibration's
     sweep = json.loads((data / "sweep.json").read_text())
     assert len(sweep["fe_checks"]) == 1
     assert pdf.urad(sweep["fe_checks"][0]["beta_rad"]["fe_abs"]) in texts[7]
