@@ -80,16 +80,20 @@ def _add_design_options(p: argparse.ArgumentParser) -> None:
     )
 
 
-def _add_mesh_options(p: argparse.ArgumentParser) -> None:
-    _add_geometry_option(p)
+def _add_order_resolution(p: argparse.ArgumentParser, what: str = "mesh") -> None:
     p.add_argument("--order", type=int, choices=(1, 2), default=2, help="P1 or P2 tetrahedra (default 2)")
     p.add_argument(
         "--resolution",
         metavar="R",
         type=_float("--resolution", lo=0.0),
         default=1.0,
-        help="mesh refinement factor, > 0: 2 halves every element size (default 1)",
+        help=f"{what} refinement factor, > 0: 2 halves every element size (default 1)",
     )
+
+
+def _add_mesh_options(p: argparse.ArgumentParser) -> None:
+    _add_geometry_option(p)
+    _add_order_resolution(p)
     p.add_argument(
         "--solver",
         choices=("auto", "cholmod", "pardiso", "superlu"),
@@ -754,14 +758,7 @@ def _add_ear_options(p: argparse.ArgumentParser) -> None:
         "--drum-e", metavar="PA", type=_float("--drum-e", lo=0.0), default=20e6, help="eardrum modulus (Pa)"
     )
     p.add_argument("--rigid-joint", action="store_true", help="replace the joint model by a rigid connection")
-    p.add_argument("--order", type=int, choices=(1, 2), default=2, help="P1 or P2 tetrahedra (default 2)")
-    p.add_argument(
-        "--resolution",
-        metavar="R",
-        type=_float("--resolution", lo=0.0),
-        default=1.0,
-        help="joint mesh refinement factor, > 0 (default 1)",
-    )
+    _add_order_resolution(p, "joint mesh")
     p.add_argument("--json", action="store_true", help="print JSON")
 
 
@@ -1085,14 +1082,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--scheduler", metavar="ADDRESS", help="Dask scheduler address (default: local processes)")
     p.add_argument("--out", metavar="PATH", default="calibration.json", help="artifact to write (.json)")
     p.add_argument("--cache", metavar="DIR", help="FE result cache (default ~/.cache/isj/fe)")
-    p.add_argument("--order", type=int, choices=(1, 2), default=2, help="FE order (default 2)")
-    p.add_argument(
-        "--resolution",
-        metavar="R",
-        type=_float("--resolution", lo=0.0),
-        default=1.0,
-        help="FE mesh resolution (default 1)",
-    )
+    _add_order_resolution(p, "FE mesh")
     p.add_argument(
         "--modal-samples",
         type=int,

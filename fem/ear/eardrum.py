@@ -34,12 +34,16 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from isj.design import InvalidParameter
+from isj.ear import EarGeometry
 
 from .shell import ShellMaterial, pressure_load
 
 #: Pars tensa of the cat (spec §5: E = 20 MPa, ν = 0.3, thickness 40 µm). The density
 #: is not in the spec: 1200 kg/m³ is an estimate (soft collagenous tissue).
 PARS_TENSA = ShellMaterial(e_pa=20e6, nu=0.3, thickness_m=40e-6, density_kg_m3=1200.0)
+
+
+_EAR = EarGeometry()
 
 
 @dataclass(frozen=True)
@@ -64,12 +68,13 @@ class EardrumGeometry:
         Not a physical dimension: 0.25 mm gives ≈ 1600 triangles.
     """
 
-    semi_axis_manubrium_m: float = 4.0e-3
-    semi_axis_transverse_m: float = 3.2e-3
-    cone_depth_m: float = 1.5e-3
-    normalized_radius: float = 1.19
-    umbo_x_m: float = 0.0
-    manubrium_gap_m: float = 0.4e-3
+    # defaults from the whole ear's anatomy (isj.ear), so the two cannot drift apart
+    semi_axis_manubrium_m: float = _EAR.drum_semi_axis_manubrium_m
+    semi_axis_transverse_m: float = _EAR.drum_semi_axis_transverse_m
+    cone_depth_m: float = _EAR.drum_cone_depth_m
+    normalized_radius: float = _EAR.drum_normalized_radius
+    umbo_x_m: float = _EAR.umbo_x_m
+    manubrium_gap_m: float = _EAR.manubrium_gap_m
     mesh_size_m: float = 0.25e-3
 
     def __post_init__(self) -> None:
