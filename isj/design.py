@@ -24,8 +24,14 @@ class InvalidParameter(ValueError):
     """A design parameter is non-physical or inconsistent with the others."""
 
 
-def _check_positive(name: str, value: float, unit: str) -> None:
-    if not isinstance(value, int | float) or not math.isfinite(value) or value <= 0:
+def check_positive(name: str, value: float, unit: str) -> None:
+    """InvalidParameter naming ``name`` unless ``value`` is a finite number > 0 (booleans refused)."""
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, int | float)
+        or not math.isfinite(value)
+        or value <= 0
+    ):
         raise InvalidParameter(f"{name} = {value!r} {unit}: must be a finite number > 0")
 
 
@@ -56,7 +62,7 @@ class Geometry:
 
     def __post_init__(self) -> None:
         for f in fields(self):
-            _check_positive(f.name, getattr(self, f.name), "m")
+            check_positive(f.name, getattr(self, f.name), "m")
         for side in ("x", "y"):
             ped = getattr(self, f"pedicle_{side}_m")
             for other in ("joint", "incus"):
@@ -123,12 +129,12 @@ class Materials:
 
     def __post_init__(self) -> None:
         for name in REGIONS:
-            _check_positive(f"{name}_e_pa", getattr(self, f"{name}_e_pa"), "Pa")
+            check_positive(f"{name}_e_pa", getattr(self, f"{name}_e_pa"), "Pa")
         nu = self.nu
         if not isinstance(nu, int | float) or not math.isfinite(nu) or not -1.0 < nu < 0.5:
             raise InvalidParameter(f"nu = {nu!r}: Poisson's ratio must lie in (-1, 0.5)")
-        _check_positive("bone_density_kg_m3", self.bone_density_kg_m3, "kg/m^3")
-        _check_positive("soft_density_kg_m3", self.soft_density_kg_m3, "kg/m^3")
+        check_positive("bone_density_kg_m3", self.bone_density_kg_m3, "kg/m^3")
+        check_positive("soft_density_kg_m3", self.soft_density_kg_m3, "kg/m^3")
 
     def youngs(self, region: str) -> float:
         """Young's modulus of a region (Pa)."""

@@ -39,19 +39,9 @@ import dataclasses
 import math
 from dataclasses import dataclass
 
-from .design import Geometry, InvalidParameter
+from .design import Geometry, InvalidParameter, check_positive
 
 Vector = tuple[float, float, float]
-
-
-def _check_positive(name: str, value, unit: str) -> None:
-    if (
-        isinstance(value, bool)
-        or not isinstance(value, int | float)
-        or not math.isfinite(value)
-        or value <= 0
-    ):
-        raise InvalidParameter(f"{name} = {value!r} {unit}: must be a finite number > 0")
 
 
 def _check_vector(name: str, value, nonzero: bool = False) -> tuple[float, float, float]:
@@ -161,8 +151,8 @@ class EarGeometry:
             "footplate_centre_thickness_m",
             "footplate_rim_thickness_m",
         ):
-            _check_positive(name, getattr(self, name), "m")
-        _check_positive("footplate_area_m2", self.footplate_area_m2, "m^2")
+            check_positive(name, getattr(self, name), "m")
+        check_positive("footplate_area_m2", self.footplate_area_m2, "m^2")
         rho = self.drum_normalized_radius
         if not isinstance(rho, int | float) or math.isnan(rho) or not rho > 0.5:
             raise InvalidParameter(f"drum_normalized_radius = {rho!r}: must be > 0.5 (inf for a plain cone)")
@@ -293,9 +283,9 @@ class EarMaterials:
     annular_in_plane_n_m: float = 9.9
 
     def __post_init__(self) -> None:
-        _check_positive("drum_e_pa", self.drum_e_pa, "Pa")
-        _check_positive("footplate_e_pa", self.footplate_e_pa, "Pa")
-        _check_positive("drum_thickness_m", self.drum_thickness_m, "m")
+        check_positive("drum_e_pa", self.drum_e_pa, "Pa")
+        check_positive("footplate_e_pa", self.footplate_e_pa, "Pa")
+        check_positive("drum_thickness_m", self.drum_thickness_m, "m")
         for name in ("drum_nu", "footplate_nu"):
             nu = getattr(self, name)
             if isinstance(nu, bool) or not isinstance(nu, int | float) or not -1.0 < nu < 0.5:

@@ -33,7 +33,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from isj.design import InvalidParameter
+from isj.design import InvalidParameter, check_positive
 from isj.ear import EarGeometry
 
 from .shell import ShellMaterial, pressure_load
@@ -79,7 +79,7 @@ class EardrumGeometry:
 
     def __post_init__(self) -> None:
         for name in ("semi_axis_manubrium_m", "semi_axis_transverse_m", "cone_depth_m", "manubrium_gap_m"):
-            _check_positive(name, getattr(self, name))
+            check_positive(name, getattr(self, name), "m")
         rho = self.normalized_radius
         if not isinstance(rho, int | float) or math.isnan(rho) or not rho > 0.5:
             raise InvalidParameter(
@@ -92,7 +92,7 @@ class EardrumGeometry:
             raise InvalidParameter(
                 f"manubrium_gap_m = {self.manubrium_gap_m!r} m: must be < {a - x_u} m (ring to umbo, in x)"
             )
-        _check_positive("mesh_size_m", self.mesh_size_m)
+        check_positive("mesh_size_m", self.mesh_size_m, "m")
         limit = min(self.manubrium_gap_m, self.semi_axis_transverse_m / 4)
         if self.mesh_size_m > limit:
             raise InvalidParameter(
@@ -117,11 +117,6 @@ class EardrumGeometry:
 
     def replace(self, **changes) -> EardrumGeometry:
         return dataclasses.replace(self, **changes)
-
-
-def _check_positive(name: str, value: float) -> None:
-    if not isinstance(value, int | float) or not math.isfinite(value) or value <= 0:
-        raise InvalidParameter(f"{name} = {value!r} m: must be a finite number > 0")
 
 
 @dataclass(frozen=True, eq=False)

@@ -34,7 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from isj.design import InvalidParameter
+from isj.design import InvalidParameter, check_positive
 
 #: Dofs per node: ux, uy, uz, θx, θy, θz.
 NDOF = 6
@@ -70,12 +70,12 @@ class ShellMaterial:
     density_kg_m3: float = 1000.0
 
     def __post_init__(self) -> None:
-        _check_positive("e_pa", self.e_pa, "Pa")
+        check_positive("e_pa", self.e_pa, "Pa")
         nu = self.nu
         if not isinstance(nu, int | float) or not math.isfinite(nu) or not -1.0 < nu < 0.5:
             raise InvalidParameter(f"nu = {nu!r}: Poisson's ratio must lie in (-1, 0.5)")
-        _check_positive("thickness_m", self.thickness_m, "m")
-        _check_positive("density_kg_m3", self.density_kg_m3, "kg/m^3")
+        check_positive("thickness_m", self.thickness_m, "m")
+        check_positive("density_kg_m3", self.density_kg_m3, "kg/m^3")
 
     @property
     def shear_modulus_pa(self) -> float:
@@ -93,11 +93,6 @@ class ShellMaterial:
         return (
             self.e_pa / (1.0 - nu**2) * np.array([[1.0, nu, 0.0], [nu, 1.0, 0.0], [0.0, 0.0, (1 - nu) / 2]])
         )
-
-
-def _check_positive(name: str, value: float, unit: str) -> None:
-    if not isinstance(value, int | float) or not math.isfinite(value) or value <= 0:
-        raise InvalidParameter(f"{name} = {value!r} {unit}: must be a finite number > 0")
 
 
 # --------------------------------------------------------------------------- geometry
@@ -282,7 +277,7 @@ def element_stiffness(nodes_m, triangles, material: ShellMaterial, drill_factor=
     Element dof ``6 a + c`` is component ``c`` (ux, uy, uz, θx, θy, θz) of corner ``a``.
     """
     x, t = check_mesh(nodes_m, triangles)
-    _check_positive("drill_factor", drill_factor, "(dimensionless)")
+    check_positive("drill_factor", drill_factor, "(dimensionless)")
     rot, xy, area = facet_frames(x, t)
     m = len(t)
     K = np.zeros((m, 18, 18))
