@@ -339,11 +339,37 @@ def _cmd_modes(args) -> int:
     return 0
 
 
+def _write_response_csv(path: Path, freq, H, outputs, units: str) -> None:
+    """Frequency response as CSV: re, im, |.|, unwrapped phase (deg) per output; units in a # line."""
+    import numpy as np
+
+    from .atomic import atomic_write_text
+
+    header = "freq_hz," + ",".join(f"{k}_re,{k}_im,{k}_abs,{k}_phase_deg" for k in outputs)
+    cols = [freq]
+    for j in range(len(outputs)):
+        h = H[:, j]
+        cols += [h.real, h.imag, np.abs(h), np.degrees(np.unwrap(np.angle(h)))]
+    rows = "\n".join(",".join(f"{v:.9g}" for v in row) for row in np.column_stack(cols))
+    atomic_write_text(path, f"# units: {units}\n{header}\n{rows}\n")
+
+
+def _write_npz(path: Path, **arrays) -> None:
+    import numpy as np
+
+    from .atomic import atomic_write
+
+    def write(tmp):
+        with open(tmp, "wb") as fh:
+            np.savez(fh, **arrays)
+
+    atomic_write(path, write)
+
+
 def _cmd_sweep(args) -> int:
     import numpy as np
 
     from fem.dynamics import Damping, harmonic_outputs
-    from fem.export import atomic_write, atomic_write_text
     from fem.model import PedicleJointModel
     from lumped.dynamics import OUTPUTS, chain_model, frequency_response
     from lumped.plots import save_bode
@@ -391,30 +417,15 @@ def _cmd_sweep(args) -> int:
                 }
             )
     poles_hz, zeta = model.poles()
-    header = "freq_hz," + ",".join(f"{k}_re,{k}_im,{k}_abs,{k}_phase_deg" for k in OUTPUTS)
-    cols = [freq]
-    for j in range(len(OUTPUTS)):
-        h = H[:, j]
-        cols += [h.real, h.imag, np.abs(h), np.degrees(np.unwrap(np.angle(h)))]
-    table = np.column_stack(cols)
-    units = (
-        "# units: freq_hz Hz; alpha_rad, beta_rad rad; incus_ux_m m; phase deg; pressure "
-        f"{args.pressure:g} Pa\n"
-    )
-    atomic_write_text(
-        out / "sweep.csv",
-        units + header + "\n" + "\n".join(",".join(f"{v:.9g}" for v in row) for row in table) + "\n",
-    )
-    atomic_write(
+    units = f"freq_hz Hz; alpha_rad, beta_rad rad; incus_ux_m m; phase deg; pressure {args.pressure:g} Pa"
+    _write_response_csv(out / "sweep.csv", freq, H, OUTPUTS, units)
+    _write_npz(
         out / "sweep.npz",
-        lambda tmp: np.savez(
-            open(tmp, "wb"),
-            freq_hz=freq,
-            response=H,
-            outputs=np.array(OUTPUTS),
-            fe_freq_hz=np.asarray(fe_freq),
-            units=np.array("freq_hz: Hz; alpha_rad, beta_rad: rad; incus_ux_m: m"),
-        ),
+        freq_hz=freq,
+        response=H,
+        outputs=np.array(OUTPUTS),
+        fe_freq_hz=np.asarray(fe_freq),
+        units=np.array("freq_hz: Hz; alpha_rad, beta_rad: rad; incus_ux_m: m"),
     )
     save_bode(out / "bode.png", freq, H, checks)
     summary = {
@@ -824,7 +835,7 @@ def _cmd_ear_sweep(args) -> int:
     from lumped.ear import OUTPUTS, UNITS, ear_model
     from lumped.plots import bode
 
-    from .atomic import atomic_write, atomic_write_text
+    from .atomic import atomic_write
     from .ear import EarMaterials
     from .provenance import write_run_record
 
@@ -909,36 +920,23 @@ def _cmd_ear_sweep(args) -> int:
     t3 = time.perf_counter()
     all_passed = passed and all(c["passed"] for c in fe_checks)
 
-    header = "freq_hz," + ",".join(f"{k}_re,{k}_im,{k}_abs,{k}_phase_deg" for k in OUTPUTS)
-    cols = [freq]
-    for j in range(len(OUTPUTS)):
-        h = H[:, j]
-        cols += [h.real, h.imag, np.abs(h), np.degrees(np.unwrap(np.angle(h)))]
-    table = np.column_stack(cols)
     joint_label = "rigid joint" if args.rigid_joint else "calibrated joint"
     units = (
-        "# units: freq_hz Hz; umbo_m, stapes_m m per Pa of ear-canal pressure; "
-        f"alpha_rad, beta_rad rad per Pa; phase deg; {joint_label}\n"
+        "freq_hz Hz; umbo_m, stapes_m m per Pa of ear-canal pressure; "
+        f"alpha_rad, beta_rad rad per Pa; phase deg; {joint_label}"
     )
-    atomic_write_text(
-        out / "ear_sweep.csv",
-        units + header + "\n" + "\n".join(",".join(f"{v:.9g}" for v in row) for row in table) + "\n",
+    _write_response_csv(out / "ear_sweep.csv", freq, H, OUTPUTS, units)
+
+    _write_npz(
+        out / "ear_sweep.npz",
+        freq_hz=freq,
+        response_per_pa=H,
+        static_per_pa=static,
+        outputs=np.array(OUTPUTS),
+        units=np.array([UNITS[k] for k in OUTPUTS]),
+        natural_freq_hz=poles_hz,
+        damping_ratio=zeta,
     )
-
-    def write_npz(tmp):
-        with open(tmp, "wb") as fh:
-            np.savez(
-                fh,
-                freq_hz=freq,
-                response_per_pa=H,
-                static_per_pa=static,
-                outputs=np.array(OUTPUTS),
-                units=np.array([UNITS[k] for k in OUTPUTS]),
-                natural_freq_hz=poles_hz,
-                damping_ratio=zeta,
-            )
-
-    atomic_write(out / "ear_sweep.npz", write_npz)
 
     import matplotlib
 
