@@ -1,13 +1,15 @@
 """Accuracy of the shipped lumped calibration against FE: held-out points and the thesis cases.
 
-Run:  .venv/bin/python benchmarks/lumped_accuracy.py [N_FRESH]
+Run:  .venv/bin/python benchmarks/lumped_accuracy.py [N_FRESH [SEED ...]]
 
 Prints the validation errors recorded in the shipped calibration (FE points
 the fit never saw), then the errors on N_FRESH (default 64) further designs
 that neither the fit nor its validation saw (a Latin hypercube of the
-calibrated domain with its own seed; FE cached), then runs the seven thesis
-cases through FE (cached) and the lumped model and compares α, β, β/α and
-their trends (the sign of each case's change from the base case).
+calibrated domain per SEED, default 12345; FE cached), then at the 2^d corners
+of the domain (every modulus at a bound at once: the hardest points, outside
+what a space-filling sample reaches), then runs the seven thesis cases through
+FE (cached) and the lumped model and compares α, β, β/α and their trends (the
+sign of each case's change from the base case).
 """
 
 from __future__ import annotations
@@ -54,6 +56,36 @@ def fresh_check(cal, n: int, seed: int = 12345) -> None:
     )
 
 
+def corner_check(cal) -> None:
+    """Errors at the 2^d corners of the calibrated domain: every modulus at a bound at once."""
+    import itertools
+
+    keys = [k for k, (lo, hi) in cal.domain.items() if lo < hi]
+    designs = [
+        {k: cal.domain[k][i] for k, i in zip(keys, corner, strict=True)}
+        for corner in itertools.product((0, 1), repeat=len(keys))
+    ]
+    recs = run_designs(
+        designs, evaluate_design, fe_settings(), Path.home() / ".cache" / "isj" / "fe", progress=False
+    )
+    lum = static_response(
+        cal.factor_array(),
+        pressure_pa=DEFAULT_PRESSURE_PA,
+        **{k: np.array([d[k] for d in designs]) for k in keys},
+    )
+    ea = lum.alpha_rad / np.array([r["result"]["alpha_rad"] for r in recs]) - 1
+    eb = lum.beta_rad / np.array([r["result"]["beta_rad"] for r in recs]) - 1
+    print(
+        f"corners of the domain: {len(designs)}; max error alpha {100 * np.abs(ea).max():.2f} %, beta "
+        f"{100 * np.abs(eb).max():.2f} %; over 3 %: alpha {int(np.sum(np.abs(ea) > 0.03))}, beta "
+        f"{int(np.sum(np.abs(eb) > 0.03))}"
+    )
+    worst = np.argsort(-np.abs(ea))[:3]
+    for i in worst:
+        moduli = ", ".join(f"{k.removesuffix('_e_pa')} {designs[i][k]:.3g}" for k in keys)
+        print(f"  alpha {100 * ea[i]:+.2f} %, beta {100 * eb[i]:+.2f} % at {moduli} Pa")
+
+
 def main():
     cal = default_calibration()
     v = cal.validation
@@ -63,8 +95,10 @@ def main():
         f"{100 * v['rms_alpha']:.2f} / {100 * v['rms_beta']:.2f} / {100 * v['rms_ratio']:.2f} %"
     )
     n_fresh = int(sys.argv[1]) if len(sys.argv) > 1 else 64
-    if n_fresh:
-        fresh_check(cal, n_fresh)
+    for seed in [int(a) for a in sys.argv[2:]] or [12345]:
+        if n_fresh:
+            fresh_check(cal, n_fresh, seed)
+    corner_check(cal)
     designs = [
         {"pedicle_e_pa": c.pedicle_e_pa, "gap_e_pa": c.gap_e_pa, "capsule_e_pa": c.capsule_e_pa}
         for c in THESIS_CASES

@@ -17,7 +17,11 @@ import numpy as np
 
 from .model import FACTOR_NAMES
 
-FORMAT_VERSION = 2  # 2: the plate_support factor (lumped.model)
+FORMAT_VERSION = 3  # 2: the plate_support factor; 3: load_sharing (lumped.model)
+
+#: Factors a file of an older format lacks, with the value that makes the current
+#: equations those of that format exactly.
+_ADDED_FACTORS = {2: {"load_sharing": 0.0}}
 
 
 class CorruptCalibration(ValueError):
@@ -75,9 +79,12 @@ class Calibration:
     @classmethod
     def from_dict(cls, d: dict, source: str = "calibration") -> Calibration:
         try:
-            if d.get("format") != FORMAT_VERSION:
-                raise CorruptCalibration(f"{source}: format {d.get('format')!r}, expected {FORMAT_VERSION}")
-            factors = {n: float(d["factors"][n]) for n in FACTOR_NAMES}
+            fmt = d.get("format")
+            if fmt != FORMAT_VERSION and fmt not in _ADDED_FACTORS:
+                known = ", ".join(str(v) for v in sorted({*_ADDED_FACTORS, FORMAT_VERSION}))
+                raise CorruptCalibration(f"{source}: format {fmt!r}, expected one of {known}")
+            given = {**_ADDED_FACTORS.get(fmt, {}), **d["factors"]}
+            factors = {n: float(given[n]) for n in FACTOR_NAMES}
             domain = {k: [float(v[0]), float(v[1])] for k, v in d["domain"].items()}
         except CorruptCalibration:
             raise

@@ -66,6 +66,21 @@ def test_corrupt_calibration_is_a_clear_error(tmp_path, capsys, text):
     assert "calibration" in err and len(err.strip().splitlines()) == 1
 
 
+def test_format_2_file_loads_as_the_model_without_load_sharing():
+    """A format-2 file predates the load_sharing term; 0 makes the equations those of format 2."""
+    d = json.loads(default_calibration().to_json())
+    d["format"] = 2
+    del d["factors"]["load_sharing"]
+    old = Calibration.from_dict(d)
+    assert old.factors["load_sharing"] == 0.0
+    d["format"] = 3
+    with pytest.raises(CorruptCalibration, match="load_sharing"):
+        Calibration.from_dict(d)
+    d["format"] = 4
+    with pytest.raises(CorruptCalibration, match="expected one of 2, 3"):
+        Calibration.from_dict(d)
+
+
 def test_shipped_calibration_loads_and_records_its_validation():
     cal = default_calibration()
     assert cal.validation["n"] >= 50

@@ -67,3 +67,28 @@ def test_casadi_expression_is_the_same_model():
 def test_impossible_moduli_are_refused(bad):
     with pytest.raises(InvalidParameter, match="pedicle_e_pa"):
         static_response(ONES, pedicle_e_pa=np.array([5e9, bad]))
+
+
+def test_load_sharing_term_peaks_where_gap_and_capsule_share_the_moment():
+    """The sharing compliance ∝ k_gap k_cap / (k_gap + k_cap)²: zero if one path carries all, max at equal."""
+    lever = Lever.from_geometry(Geometry())
+    share = FACTOR_NAMES.index("load_sharing")
+    with_term, without = ONES.copy(), ONES.copy()
+    without[share] = 0.0
+    E = moduli_arrays(capsule_e_pa=np.geomspace(1e5, 1e11, 601))
+    extra = equations(E, with_term, lever)[0] - equations(E, without, lever)[0]
+    k_gap = lever.gap * E["gap_e_pa"]
+    k_cap = 1 / (
+        1 / (lever.capsule * E["capsule_e_pa"])
+        + 1 / (lever.attachment * E["plate_e_pa"] ** 0.75 * E["capsule_e_pa"] ** 0.25)
+        + 1 / (lever.attachment * E["stapes_e_pa"])
+    )
+    peak = np.argmax(extra)
+    assert k_cap[peak] / k_gap == pytest.approx(1.0, rel=0.05)
+    # the peak: a quarter of the plate face's unit compliance, times the arm and the load
+    assert extra[peak] == pytest.approx(
+        lever.force_per_pa * lever.joint_arm * lever.bulk / E["plate_e_pa"] / 4, rel=1e-4
+    )
+    unit = lever.force_per_pa * lever.joint_arm * lever.bulk / E["plate_e_pa"]
+    assert np.allclose(extra, unit * k_gap * k_cap / (k_gap + k_cap) ** 2, rtol=1e-9, atol=0)
+    assert extra[0] < 0.05 * extra[peak]  # the capsule carries (almost) nothing
