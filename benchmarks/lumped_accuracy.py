@@ -33,12 +33,11 @@ def _trend(a, b, i, threshold):
     return np.sign(rel) * (np.abs(rel) > threshold)
 
 
-def fresh_check(cal, n: int, seed: int = 12345) -> None:
-    """Errors on ``n`` designs that neither the fit nor its validation used."""
-    from calibration.doe import DesignSpace, sample
-
-    designs = sample(DesignSpace.from_dict(cal.domain), n, seed, method="lhs")
-    recs = run_designs(designs, evaluate_design, fe_settings(), Path.home() / ".cache" / "isj" / "fe")
+def _errors(cal, designs: list[dict], progress: bool = False):
+    """Relative errors lumped/FE − 1 of α, β and β/α over ``designs`` (FE cached)."""
+    recs = run_designs(
+        designs, evaluate_design, fe_settings(), Path.home() / ".cache" / "isj" / "fe", progress=progress
+    )
     lum = static_response(
         cal.factor_array(),
         pressure_pa=DEFAULT_PRESSURE_PA,
@@ -46,8 +45,16 @@ def fresh_check(cal, n: int, seed: int = 12345) -> None:
     )
     fe_a = np.array([r["result"]["alpha_rad"] for r in recs])
     fe_b = np.array([r["result"]["beta_rad"] for r in recs])
-    ea, eb = lum.alpha_rad / fe_a - 1, lum.beta_rad / fe_b - 1
-    er = (lum.beta_rad / lum.alpha_rad) / (fe_b / fe_a) - 1
+    ratio = (lum.beta_rad / lum.alpha_rad) / (fe_b / fe_a) - 1
+    return lum.alpha_rad / fe_a - 1, lum.beta_rad / fe_b - 1, ratio
+
+
+def fresh_check(cal, n: int, seed: int = 12345) -> None:
+    """Errors on ``n`` designs that neither the fit nor its validation used."""
+    from calibration.doe import DesignSpace, sample
+
+    designs = sample(DesignSpace.from_dict(cal.domain), n, seed, method="lhs")
+    ea, eb, er = _errors(cal, designs, progress=True)
     print(
         f"fresh FE points (LHS, seed {seed}): {n}; max error alpha {100 * np.abs(ea).max():.2f} %, beta "
         f"{100 * np.abs(eb).max():.2f} %, beta/alpha {100 * np.abs(er).max():.2f} %; RMS "
@@ -65,16 +72,7 @@ def corner_check(cal) -> None:
         {k: cal.domain[k][i] for k, i in zip(keys, corner, strict=True)}
         for corner in itertools.product((0, 1), repeat=len(keys))
     ]
-    recs = run_designs(
-        designs, evaluate_design, fe_settings(), Path.home() / ".cache" / "isj" / "fe", progress=False
-    )
-    lum = static_response(
-        cal.factor_array(),
-        pressure_pa=DEFAULT_PRESSURE_PA,
-        **{k: np.array([d[k] for d in designs]) for k in keys},
-    )
-    ea = lum.alpha_rad / np.array([r["result"]["alpha_rad"] for r in recs]) - 1
-    eb = lum.beta_rad / np.array([r["result"]["beta_rad"] for r in recs]) - 1
+    ea, eb, _ = _errors(cal, designs)
     print(
         f"corners of the domain: {len(designs)}; max error alpha {100 * np.abs(ea).max():.2f} %, beta "
         f"{100 * np.abs(eb).max():.2f} %; over 3 %: alpha {int(np.sum(np.abs(ea) > 0.03))}, beta "

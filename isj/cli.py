@@ -366,6 +366,22 @@ def _write_npz(path: Path, **arrays) -> None:
     atomic_write(path, write)
 
 
+def _sweep_setup(args):
+    """Checks shared by ``isj sweep`` and ``isj ear sweep``: (out dir, calibration, materials, moduli)."""
+    if not 0 < args.fmin_hz < args.fmax_hz:
+        raise UsageError(f"--fmin-hz/--fmax-hz = {args.fmin_hz:g}/{args.fmax_hz:g}: need 0 < fmin < fmax")
+    if not 2 <= args.n <= 100_000:
+        raise UsageError(f"--n = {args.n}: must be an integer in [2, 100000]")
+    if not 0 <= args.fe_checks <= 50:
+        raise UsageError(f"--fe-checks = {args.fe_checks}: must be an integer in [0, 50]")
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise UsageError(f"--out = {args.out!r}: exists and is not a directory")
+    cal = _load_calibration(args.calibration)
+    m = _materials(args)
+    return out, cal, m, {f"{r}_e_pa": getattr(m, f"{r}_e_pa") for r in _MODULUS_OPTIONS}
+
+
 def _cmd_sweep(args) -> int:
     import numpy as np
 
@@ -376,16 +392,7 @@ def _cmd_sweep(args) -> int:
 
     from .provenance import write_run_record
 
-    if not 0 < args.fmin_hz < args.fmax_hz:
-        raise UsageError(f"--fmin-hz/--fmax-hz = {args.fmin_hz:g}/{args.fmax_hz:g}: need 0 < fmin < fmax")
-    if args.n < 2 or args.n > 100_000 or args.fe_checks < 0 or args.fe_checks > 50:
-        raise UsageError("--n: must be in [2, 100000]; --fe-checks: must be in [0, 50]")
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise UsageError(f"--out = {args.out!r}: exists and is not a directory")
-    cal = _load_calibration(args.calibration)
-    m = _materials(args)
-    designs = {f"{r}_e_pa": getattr(m, f"{r}_e_pa") for r in _MODULUS_OPTIONS}
+    out, cal, m, designs = _sweep_setup(args)
     _warn_outside(cal, designs)
     damping = Damping(args.rayleigh_a, args.rayleigh_b, args.loss_factor)
     freq = np.geomspace(args.fmin_hz, args.fmax_hz, args.n)
@@ -839,18 +846,7 @@ def _cmd_ear_sweep(args) -> int:
     from .ear import EarMaterials
     from .provenance import write_run_record
 
-    if not 0 < args.fmin_hz < args.fmax_hz:
-        raise UsageError(f"--fmin-hz/--fmax-hz = {args.fmin_hz:g}/{args.fmax_hz:g}: need 0 < fmin < fmax")
-    if not 2 <= args.n <= 100_000:
-        raise UsageError(f"--n = {args.n}: must be an integer in [2, 100000]")
-    if not 0 <= args.fe_checks <= 50:
-        raise UsageError(f"--fe-checks = {args.fe_checks}: must be an integer in [0, 50]")
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise UsageError(f"--out = {args.out!r}: exists and is not a directory")
-    cal = _load_calibration(args.calibration)
-    m = _materials(args)
-    designs = {f"{r}_e_pa": getattr(m, f"{r}_e_pa") for r in _MODULUS_OPTIONS}
+    out, cal, m, designs = _sweep_setup(args)
     if not args.rigid_joint:
         _warn_outside(cal, designs)
     t0 = time.perf_counter()
