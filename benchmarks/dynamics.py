@@ -22,11 +22,11 @@ import time
 
 import numpy as np
 
-from fem.dynamics import Damping, _shifted_lanczos, _solve_block, harmonic, harmonic_outputs, modes
-from fem.model import PedicleJointModel
+from isj.fem.dynamics import Damping, _shifted_lanczos, _solve_block, harmonic, harmonic_outputs, modes
+from isj.fem.model import PedicleJointModel
 from isj.design import Materials
-from lumped.artifact import default_calibration
-from lumped.dynamics import chain_model, frequency_response
+from isj.lumped.artifact import default_calibration
+from isj.lumped.dynamics import chain_model, frequency_response
 
 
 def calibration_frequencies(cal, samples=16, validation=8, seed=100):
@@ -38,9 +38,9 @@ def calibration_frequencies(cal, samples=16, validation=8, seed=100):
     import os
     from pathlib import Path
 
-    from calibration.doe import DesignSpace, sample
-    from calibration.runner import run_designs
-    from fem.batch import evaluate_modes, fe_settings
+    from isj.calibration.doe import DesignSpace, sample
+    from isj.calibration.runner import run_designs
+    from isj.fem.batch import evaluate_modes, fe_settings
 
     space = DesignSpace.from_dict(cal.domain)
     sets = {

@@ -16,8 +16,8 @@ import argparse
 import json
 import time
 
-from fem.ear.middle_ear import MiddleEarModel
-from fem.model import PedicleJointModel
+from isj.fem.ear.middle_ear import MiddleEarModel
+from isj.fem.model import PedicleJointModel
 from isj.cases import THESIS_CASES
 from isj.design import DEFAULT_PRESSURE_PA
 from isj.ear import (

@@ -17,10 +17,10 @@ import time
 
 import numpy as np
 
-from fem.ear import ear_dynamics as ed
-from fem.ear.middle_ear import MiddleEarModel
-from fem.model import PedicleJointModel
-from lumped.ear import ear_model
+from isj.fem.ear import ear_dynamics as ed
+from isj.fem.ear.middle_ear import MiddleEarModel
+from isj.fem.model import PedicleJointModel
+from isj.lumped.ear import ear_model
 
 
 def run(label: str, model: MiddleEarModel, rigid_joint: bool, n_modes: int = 6) -> dict:

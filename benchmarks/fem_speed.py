@@ -21,12 +21,12 @@ import time
 
 import numpy as np
 
-from fem.assembly import assemble_regions, build_pattern, combine, lame_unit
-from fem.boundary import Reduction, clamped_dofs, pressure_load
-from fem.mesh import mesh_pedicle_joint
-from fem.model import PedicleJointModel
-from fem.solvers import make_solver
-from fem.space import build_space
+from isj.fem.assembly import assemble_regions, build_pattern, combine, lame_unit
+from isj.fem.boundary import Reduction, clamped_dofs, pressure_load
+from isj.fem.mesh import mesh_pedicle_joint
+from isj.fem.model import PedicleJointModel
+from isj.fem.solvers import make_solver
+from isj.fem.space import build_space
 from isj.cases import THESIS_CASES
 from isj.design import DEFAULT_PRESSURE_PA, Geometry, Materials
 

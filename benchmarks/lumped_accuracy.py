@@ -19,12 +19,12 @@ from pathlib import Path
 
 import numpy as np
 
-from calibration.runner import run_designs
-from fem.batch import evaluate_design, fe_settings
+from isj.calibration.runner import run_designs
+from isj.fem.batch import evaluate_design, fe_settings
 from isj.cases import THESIS_CASES
 from isj.design import DEFAULT_PRESSURE_PA
-from lumped.artifact import default_calibration
-from lumped.model import static_response
+from isj.lumped.artifact import default_calibration
+from isj.lumped.model import static_response
 
 
 def _trend(a, b, i, threshold):
@@ -51,7 +51,7 @@ def _errors(cal, designs: list[dict], progress: bool = False):
 
 def fresh_check(cal, n: int, seed: int = 12345) -> None:
     """Errors on ``n`` designs that neither the fit nor its validation used."""
-    from calibration.doe import DesignSpace, sample
+    from isj.calibration.doe import DesignSpace, sample
 
     designs = sample(DesignSpace.from_dict(cal.domain), n, seed, method="lhs")
     ea, eb, er = _errors(cal, designs, progress=True)

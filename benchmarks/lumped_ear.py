@@ -17,9 +17,9 @@ import time
 
 import numpy as np
 
-from fem.ear.middle_ear import MiddleEarModel
-from fem.model import PedicleJointModel
-from lumped.ear import ear_model
+from isj.fem.ear.middle_ear import MiddleEarModel
+from isj.fem.model import PedicleJointModel
+from isj.lumped.ear import ear_model
 
 NM, URAD = 1e9, 1e6
 

@@ -14,8 +14,8 @@ import time
 
 import numpy as np
 
-from lumped.artifact import default_calibration
-from lumped.model import MODULI, static_response
+from isj.lumped.artifact import default_calibration
+from isj.lumped.model import MODULI, static_response
 
 
 def main(argv=None):
@@ -39,8 +39,8 @@ def main(argv=None):
 
     from pathlib import Path
 
-    from calibration.pipeline import calibrate
-    from fem.batch import evaluate_design, fe_settings
+    from isj.calibration.pipeline import calibrate
+    from isj.fem.batch import evaluate_design, fe_settings
 
     cache = Path(args.cache) if args.cache else Path.home() / ".cache" / "isj" / "fe"
     prov = cal.provenance

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from isj.design import Geometry
-from lumped.model import FACTOR_NAMES, MODULI, Lever, equations, moduli_arrays
+from isj.lumped.model import FACTOR_NAMES, MODULI, Lever, equations, moduli_arrays
 
 #: Bound on |log factor| during the fit.
 LOG_BOUND = 25.0

@@ -13,8 +13,8 @@ from importlib import metadata
 import numpy as np
 
 from isj.design import Geometry
-from lumped.artifact import Calibration
-from lumped.model import FACTOR_NAMES, Lever, equations, moduli_arrays
+from isj.lumped.artifact import Calibration
+from isj.lumped.model import FACTOR_NAMES, Lever, equations, moduli_arrays
 
 from .doe import DesignSpace, sample
 from .fit import fit_factors
@@ -118,7 +118,7 @@ def frequency_errors(
     -------
     dict with ``n`` and ``max_f1``, ``rms_f1``, ``max_f2``, ``rms_f2`` (relative)
     """
-    from lumped.dynamics import chain_model
+    from isj.lumped.dynamics import chain_model
 
     moduli = {k: np.array([d[k] for d in designs]) for k in designs[0]}
     fe = np.asarray(fe_freq_hz, dtype=float)
@@ -151,7 +151,7 @@ def fit_shear(factors, designs: list[dict], fe_freq_hz: np.ndarray, geometry: Ge
     """
     from scipy.optimize import minimize_scalar
 
-    from lumped.dynamics import chain_model
+    from isj.lumped.dynamics import chain_model
 
     moduli = {k: np.array([d[k] for d in designs]) for k in designs[0]}
     fe = np.asarray(fe_freq_hz, dtype=float)

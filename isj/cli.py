@@ -150,8 +150,8 @@ def _urad(x: float) -> str:
 
 
 def _cmd_solve(args) -> int:
-    from fem.export import write_model_vtu
-    from fem.model import PedicleJointModel
+    from isj.fem.export import write_model_vtu
+    from isj.fem.model import PedicleJointModel
 
     from .provenance import write_run_record
 
@@ -190,8 +190,8 @@ def _cmd_solve(args) -> int:
 
 
 def _cmd_cases(args) -> int:
-    from fem.export import write_model_vtu
-    from fem.model import PedicleJointModel
+    from isj.fem.export import write_model_vtu
+    from isj.fem.model import PedicleJointModel
 
     from .cases import THESIS_BASE_ALPHA_RAD, THESIS_BASE_BETA_RAD, THESIS_CASES
     from .provenance import write_run_record
@@ -257,7 +257,7 @@ def _cmd_cases(args) -> int:
 
 
 def _cmd_convergence(args) -> int:
-    from fem.convergence import cantilever_study, joint_study, plot_study
+    from isj.fem.convergence import cantilever_study, joint_study, plot_study
 
     plot = Path(args.plot) if args.plot else None
     if plot is not None and (plot.suffix.lower() not in (".png", ".pdf", ".svg") or plot.is_dir()):
@@ -303,9 +303,9 @@ def _cmd_convergence(args) -> int:
 
 
 def _cmd_modes(args) -> int:
-    from fem.dynamics import modes
-    from fem.export import write_modes
-    from fem.model import PedicleJointModel
+    from isj.fem.dynamics import modes
+    from isj.fem.export import write_modes
+    from isj.fem.model import PedicleJointModel
 
     if args.n < 1 or args.n > 100:
         raise UsageError(f"--n = {args.n}: must be between 1 and 100")
@@ -385,10 +385,10 @@ def _sweep_setup(args):
 def _cmd_sweep(args) -> int:
     import numpy as np
 
-    from fem.dynamics import Damping, harmonic_outputs
-    from fem.model import PedicleJointModel
-    from lumped.dynamics import OUTPUTS, chain_model, frequency_response
-    from lumped.plots import save_bode
+    from isj.fem.dynamics import Damping, harmonic_outputs
+    from isj.fem.model import PedicleJointModel
+    from isj.lumped.dynamics import OUTPUTS, chain_model, frequency_response
+    from isj.lumped.plots import save_bode
 
     from .provenance import write_run_record
 
@@ -464,8 +464,8 @@ def _cmd_sweep(args) -> int:
 
 
 def _cmd_mesh(args) -> int:
-    from fem.model import PedicleJointModel
-    from fem.quality import mesh_quality, rcm_bandwidth
+    from isj.fem.model import PedicleJointModel
+    from isj.fem.quality import mesh_quality, rcm_bandwidth
 
     model = PedicleJointModel(_geometry(args), args.order, args.resolution, solver=args.solver)
     q = mesh_quality(model.mesh)
@@ -504,7 +504,7 @@ def _fe_cache_dir(path: str | None) -> Path:
 
 
 def _load_calibration(path: str | None):
-    from lumped.artifact import Calibration, CorruptCalibration, default_calibration
+    from isj.lumped.artifact import Calibration, CorruptCalibration, default_calibration
 
     try:
         return Calibration.load(path) if path else default_calibration()
@@ -540,7 +540,7 @@ def _warn_fe_settings(cal, order: int, resolution: float) -> None:
 
 
 def _cmd_lumped_solve(args) -> int:
-    from lumped.model import static_response
+    from isj.lumped.model import static_response
 
     cal = _load_calibration(args.calibration)
     if args.geometry:
@@ -575,9 +575,9 @@ def _cmd_lumped_solve(args) -> int:
 
 
 def _cmd_calibrate(args) -> int:
-    from calibration.pipeline import calibrate, calibrate_dynamics
-    from fem.batch import evaluate_design, evaluate_modes, fe_settings
-    from fem.export import atomic_write_text
+    from isj.calibration.pipeline import calibrate, calibrate_dynamics
+    from isj.fem.batch import evaluate_design, evaluate_modes, fe_settings
+    from isj.fem.export import atomic_write_text
 
     out = Path(args.out)
     if out.suffix.lower() != ".json" or out.is_dir():
@@ -667,9 +667,9 @@ def _explore_designs(args) -> dict:
 def _cmd_explore(args) -> int:
     import numpy as np
 
-    from calibration.runner import run_designs
-    from fem.batch import evaluate_design, fe_settings
-    from lumped.model import static_response
+    from isj.calibration.runner import run_designs
+    from isj.fem.batch import evaluate_design, fe_settings
+    from isj.lumped.model import static_response
 
     cal = _load_calibration(args.calibration)
     if args.n < 1 or (args.sample is not None and args.sample < 1) or args.spot_checks < 0:
@@ -752,9 +752,9 @@ def _cmd_explore(args) -> int:
 
 
 def _cmd_report(args) -> int:
-    from lumped.artifact import CorruptCalibration
-    from reports.config import ConfigError, load_config
-    from reports.run import load_calibration, run_report
+    from isj.lumped.artifact import CorruptCalibration
+    from isj.reports.config import ConfigError, load_config
+    from isj.reports.run import load_calibration, run_report
 
     # everything is validated before the output folder is created
     try:
@@ -781,8 +781,8 @@ def _add_ear_options(p: argparse.ArgumentParser) -> None:
 
 
 def _ear_model(args):
-    from fem.ear.middle_ear import MiddleEarModel
-    from fem.model import PedicleJointModel
+    from isj.fem.ear.middle_ear import MiddleEarModel
+    from isj.fem.model import PedicleJointModel
 
     from .ear import EarMaterials
 
@@ -839,8 +839,8 @@ def _cmd_ear_sweep(args) -> int:
     """Lumped ear's frequency response per Pa (CSV, NPZ, Bode PNG, JSON), FE whole-ear static spot check."""
     import numpy as np
 
-    from lumped.ear import OUTPUTS, UNITS, ear_model
-    from lumped.plots import bode
+    from isj.lumped.ear import OUTPUTS, UNITS, ear_model
+    from isj.lumped.plots import bode
 
     from .atomic import atomic_write
     from .ear import EarMaterials
@@ -887,7 +887,7 @@ def _cmd_ear_sweep(args) -> int:
         "passed": passed,
     }
     # FE whole-ear harmonic spot checks inside the band (same masses and damping as the lumped ear)
-    from fem.ear.ear_dynamics import EarDamping
+    from isj.fem.ear.ear_dynamics import EarDamping
 
     fe_freq = np.geomspace(args.fmin_hz, args.fmax_hz, args.fe_checks + 2)[1:-1] if args.fe_checks else []
     fe_checks = []

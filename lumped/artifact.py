@@ -129,6 +129,6 @@ DEFAULT_CALIBRATION = "default_calibration.json"
 
 def default_calibration() -> Calibration:
     """The calibration that ships with the package."""
-    ref = resources.files("lumped") / "data" / DEFAULT_CALIBRATION
+    ref = resources.files("isj.lumped") / "data" / DEFAULT_CALIBRATION
     d = json.loads(ref.read_text())
     return Calibration.from_dict(d, source="default calibration")

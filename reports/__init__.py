@@ -1,0 +1,1 @@
+"""The PDF report: configuration, cached pipeline steps, figures and pages (``isj report``)."""

@@ -368,7 +368,7 @@ def calibration_page(fig, cal: dict):
 
 
 def sweep_page(fig, sweep: dict, arrays: dict):
-    from lumped.plots import bode
+    from isj.lumped.plots import bode
 
     freq = arrays["freq_hz"]
     outs = ("alpha_rad", "beta_rad")

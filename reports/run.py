@@ -33,7 +33,7 @@ def _fe_cache_dir() -> Path:
 
 
 def load_calibration(config: ReportConfig):
-    from lumped.artifact import Calibration, default_calibration
+    from isj.lumped.artifact import Calibration, default_calibration
 
     return Calibration.load(config.calibration.file) if config.calibration.file else default_calibration()
 

@@ -35,7 +35,7 @@ class Context:
 
     @property
     def settings(self) -> dict:
-        from fem.batch import fe_settings
+        from isj.fem.batch import fe_settings
 
         c = self.config
         return fe_settings(c.mesh.order, c.mesh.resolution, c.geometry, c.design.pressure_pa)
@@ -45,8 +45,8 @@ class Context:
 
     def run_static(self, designs: list[dict]) -> list[dict]:
         """FE results of ``designs`` (cached; evaluated in this process so the model is built once)."""
-        from calibration.runner import run_designs
-        from fem.batch import evaluate_design
+        from isj.calibration.runner import run_designs
+        from isj.fem.batch import evaluate_design
 
         recs = run_designs(
             designs, evaluate_design, self.settings, self.fe_cache_dir, max_workers=0, progress=self.progress
@@ -55,7 +55,7 @@ class Context:
 
     def lumped(self, designs: list[dict]):
         """Lumped static response (arrays over ``designs``)."""
-        from lumped.model import static_response
+        from isj.lumped.model import static_response
 
         moduli = {k: np.array([d[k] for d in designs]) for k in designs[0] if k.endswith("_e_pa")}
         return static_response(
@@ -87,8 +87,8 @@ def _surface(tets: np.ndarray, region: np.ndarray) -> tuple[np.ndarray, np.ndarr
 
 def model_step(ctx: Context) -> tuple[dict, dict]:
     """Mesh statistics and quality, and the base design's static solution with its fields for pictures."""
-    from fem.batch import shared_model
-    from fem.quality import mesh_quality
+    from isj.fem.batch import shared_model
+    from isj.fem.quality import mesh_quality
 
     cfg = ctx.config
     model, mesh_hash = shared_model(ctx.settings)
@@ -122,8 +122,8 @@ def model_step(ctx: Context) -> tuple[dict, dict]:
 
 def write_base_vtu(ctx: Context, path: Path) -> Path:
     """The base design as VTU (displacement, region id, strain-energy density)."""
-    from fem.batch import shared_model
-    from fem.export import write_model_vtu
+    from isj.fem.batch import shared_model
+    from isj.fem.export import write_model_vtu
 
     model, _ = shared_model(ctx.settings)
     res = model.solve(ctx.config.design.materials(), ctx.config.design.pressure_pa)
@@ -204,7 +204,7 @@ def trends_step(ctx: Context) -> tuple[dict, dict]:
 
 def convergence_step(ctx: Context) -> tuple[dict, dict]:
     """The pedicle cantilever (spec 2.6): maximum displacement against tets, P1 and P2, x and y."""
-    from fem.convergence import cantilever_study
+    from isj.fem.convergence import cantilever_study
 
     c = ctx.config.convergence
     studies = []
@@ -217,7 +217,7 @@ def convergence_step(ctx: Context) -> tuple[dict, dict]:
 
 def calibration_step(ctx: Context) -> tuple[dict, dict]:
     """The calibration's recorded quality, and a fresh check on designs it never saw."""
-    from calibration.doe import DesignSpace, sample
+    from isj.calibration.doe import DesignSpace, sample
 
     cal = ctx.calibration
     c = ctx.config.calibration
@@ -259,9 +259,9 @@ def calibration_step(ctx: Context) -> tuple[dict, dict]:
 
 def sweep_step(ctx: Context) -> tuple[dict, dict]:
     """Damped frequency response of the base design: lumped chain, FE harmonic checks, modes."""
-    from calibration.runner import run_designs
-    from fem.batch import evaluate_harmonic, evaluate_modes
-    from lumped.dynamics import OUTPUTS, chain_model, frequency_response
+    from isj.calibration.runner import run_designs
+    from isj.fem.batch import evaluate_harmonic, evaluate_modes
+    from isj.lumped.dynamics import OUTPUTS, chain_model, frequency_response
 
     cfg = ctx.config
     s = cfg.sweep
@@ -336,8 +336,8 @@ def sweep_step(ctx: Context) -> tuple[dict, dict]:
 
 def ear_step(ctx: Context) -> tuple[dict, dict]:
     """The whole cat middle ear (spec 5) with the joint model inside: static response per Pa."""
-    from fem.batch import shared_model
-    from fem.ear.middle_ear import MiddleEarModel
+    from isj.fem.batch import shared_model
+    from isj.fem.ear.middle_ear import MiddleEarModel
     from isj.ear import EXPERIMENT_STAPES_M_PER_PA, EXPERIMENT_UMBO_M_PER_PA, SPL_100DB_PEAK_PA
 
     cfg = ctx.config
@@ -418,7 +418,7 @@ STEPS = (
 
 def step_inputs(ctx: Context, sections: tuple[str, ...]) -> dict:
     """What a step's result depends on: its config sections, the FE code, the step code, the calibration."""
-    from fem.batch import fem_code_digest
+    from isj.fem.batch import fem_code_digest
 
     d = ctx.config.to_dict()
     cal = dataclasses.asdict(ctx.calibration)

@@ -16,6 +16,6 @@ def _private_mesh_cache(tmp_path_factory):
 def coarse_model():
     """A coarse P2 model (seconds to build): for properties that hold on any mesh."""
     pytest.importorskip("gmsh")
-    from fem.model import PedicleJointModel
+    from isj.fem.model import PedicleJointModel
 
     return PedicleJointModel(order=2, resolution=0.35)

@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from fem.assembly import assemble_mass, assemble_regions, build_pattern, combine, lame_unit
-from fem.mesh import TetMesh
-from fem.space import build_space
-from fem.structured import box_mesh
+from isj.fem.assembly import assemble_mass, assemble_regions, build_pattern, combine, lame_unit
+from isj.fem.mesh import TetMesh
+from isj.fem.space import build_space
+from isj.fem.structured import box_mesh
 
 
 def two_region_box():

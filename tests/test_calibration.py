@@ -8,11 +8,11 @@ import pytest
 pytest.importorskip("casadi")
 pytest.importorskip("gmsh")
 
-from calibration.doe import DesignSpace  # noqa: E402
-from calibration.pipeline import calibrate  # noqa: E402
-from fem.batch import evaluate_design, fe_settings  # noqa: E402
+from isj.calibration.doe import DesignSpace  # noqa: E402
+from isj.calibration.pipeline import calibrate  # noqa: E402
+from isj.fem.batch import evaluate_design, fe_settings  # noqa: E402
 from isj.cli import main  # noqa: E402
-from lumped.artifact import Calibration, CorruptCalibration, default_calibration  # noqa: E402
+from isj.lumped.artifact import Calibration, CorruptCalibration, default_calibration  # noqa: E402
 
 COARSE_FE = {"order": 2, "resolution": 0.5}
 # pedicle, gap and capsule moduli vary; plate and stapes stay at their defaults
@@ -127,7 +127,7 @@ def test_explore_spot_checks_guard(small_calibration, tmp_path, capsys):
 
 def test_lumped_is_fast():
     """Vectorised evaluation: a million designs is a handful of numpy operations (no timing asserted)."""
-    from lumped.model import static_response
+    from isj.lumped.model import static_response
 
     E = np.geomspace(1e9, 2e10, 1_000_000)
     r = static_response(default_calibration().factor_array(), pedicle_e_pa=E)

@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from calibration.doe import DesignSpace, corners, grid, sample
+from isj.calibration.doe import DesignSpace, corners, grid, sample
 from isj.design import InvalidParameter
 
 SPACE = DesignSpace()

@@ -7,11 +7,11 @@ import pytest
 
 pytest.importorskip("gmsh")
 
-from fem.ear.footplate import footplate_mesh  # noqa: E402
-from fem.ear.middle_ear import MiddleEarModel, joint_frame  # noqa: E402
-from fem.ear.rigid import axis_of_rotation, grounded_springs, point_map  # noqa: E402
-from fem.ear.shell import NDOF  # noqa: E402
-from fem.model import PedicleJointModel  # noqa: E402
+from isj.fem.ear.footplate import footplate_mesh  # noqa: E402
+from isj.fem.ear.middle_ear import MiddleEarModel, joint_frame  # noqa: E402
+from isj.fem.ear.rigid import axis_of_rotation, grounded_springs, point_map  # noqa: E402
+from isj.fem.ear.shell import NDOF  # noqa: E402
+from isj.fem.model import PedicleJointModel  # noqa: E402
 from isj.cases import THESIS_CASES  # noqa: E402
 from isj.design import REGIONS, InvalidParameter, Materials  # noqa: E402
 from isj.ear import EarGeometry, EarMasses, EarMaterials  # noqa: E402
@@ -292,7 +292,7 @@ def test_cli_ear_solve_json_and_bad_input(capsys):
 
 
 def _ear_dynamics():
-    from fem.ear import ear_dynamics
+    from isj.fem.ear import ear_dynamics
 
     return ear_dynamics
 
@@ -303,8 +303,8 @@ UNDAMPED = dict(rayleigh_a_per_s=0.0, rayleigh_b_s=0.0, loss_factor=0.0)
 def _expected_total_mass(model, materials=None):
     """ρ t A of the drum, the two bodies' masses (the footplate is part of the 0.5 mg stapes), ρ V of
     the joint's regions."""
-    from fem.ear.shell import surface_area
-    from fem.quality import tet_quality
+    from isj.fem.ear.shell import surface_area
+    from isj.fem.quality import tet_quality
 
     ms, em = EarMasses(), EarMaterials()
     total = (
@@ -322,7 +322,7 @@ def _expected_total_mass(model, materials=None):
 
 @pytest.mark.parametrize("variant", ["rigid", "ear"])
 def test_unit_translation_kinetic_energy_is_the_total_mass(variant, request):
-    from fem.ear.shell import surface_area
+    from isj.fem.ear.shell import surface_area
 
     model = request.getfixturevalue(variant)
     ed = _ear_dynamics()

@@ -7,15 +7,15 @@ import pytest
 
 pytest.importorskip("gmsh")
 
-from fem.ear.constraints import node_dofs, rigid_link_transform, solve_static  # noqa: E402
-from fem.ear.eardrum import (  # noqa: E402
+from isj.fem.ear.constraints import node_dofs, rigid_link_transform, solve_static  # noqa: E402
+from isj.fem.ear.eardrum import (  # noqa: E402
     PARS_TENSA,
     EardrumGeometry,
     ear_canal_load,
     eardrum_mesh,
     lift,
 )
-from fem.ear.shell import stiffness_matrix, surface_area  # noqa: E402
+from isj.fem.ear.shell import stiffness_matrix, surface_area  # noqa: E402
 from isj.design import InvalidParameter  # noqa: E402
 
 CAT = EardrumGeometry()

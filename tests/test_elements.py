@@ -5,7 +5,7 @@ from math import factorial
 import numpy as np
 import pytest
 
-from fem.elements import (
+from isj.fem.elements import (
     barycentric,
     reference_mass,
     shape_functions,

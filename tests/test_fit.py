@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 
 from isj.design import Geometry
-from lumped.model import FACTOR_NAMES, MODULI, Lever, equations
+from isj.lumped.model import FACTOR_NAMES, MODULI, Lever, equations
 
 pytest.importorskip("casadi")
-from calibration.fit import FitFailed, fit_factors  # noqa: E402
+from isj.calibration.fit import FitFailed, fit_factors  # noqa: E402
 
 
 def synthetic_records(factors, n=40, seed=3):

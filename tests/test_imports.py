@@ -1,5 +1,9 @@
-"""Import directions (DEVELOPERS.md): isj vocabulary ← fem, lumped; lumped ← calibration;
-everything ← reports and the CLI. And gmsh is imported inside fem functions only."""
+"""Import directions: the isj vocabulary ← isj.fem, isj.lumped; isj.lumped ← isj.calibration;
+everything ← isj.reports and the CLI. gmsh is imported inside fem functions only.
+
+The folders fem/, lumped/, calibration/ and reports/ sit beside isj/ in the
+repository and install as isj.fem, isj.lumped, ...; the part a module belongs
+to is its folder, and the part an import reaches is its second dotted name."""
 
 import ast
 import subprocess
@@ -20,11 +24,27 @@ ALLOWED = {
     "calibration": {"isj", "lumped", "calibration"},
     "reports": set(PACKAGES),
 }
-TOP_OF_STACK = {"isj/cli.py", "isj/provenance.py", "isj/__main__.py"}
+TOP_OF_STACK = {"isj/cli.py", "isj/provenance.py", "isj/__main__.py", "isj/__init__.py"}
+
+
+def _is_top_of_stack(rel: str) -> bool:
+    return rel in TOP_OF_STACK or rel.startswith("isj/_cli/")
+
+
+SUBPACKAGES = ("fem", "lumped", "calibration", "reports")
+
+
+def _part(dotted: str) -> str:
+    """The project part an absolute import reaches: isj.fem.x -> fem, isj.design -> isj;
+    anything outside the project keeps its own top-level name."""
+    parts = dotted.split(".")
+    if parts[0] != "isj":
+        return parts[0]
+    return parts[1] if len(parts) > 1 and parts[1] in SUBPACKAGES else "isj"
 
 
 def project_imports(path: Path) -> list[tuple[str, bool]]:
-    """(top-level project package, at module level?) for each import in a file."""
+    """(project part or outside package, at module level?) for each import in a file."""
     tree = ast.parse(path.read_text())
     module_level = {id(n) for n in tree.body}
     out = []
@@ -34,11 +54,13 @@ def project_imports(path: Path) -> list[tuple[str, bool]]:
         elif isinstance(node, ast.ImportFrom):
             if node.level:  # relative: stays inside its own package
                 continue
-            names = [node.module or ""]
+            mod = node.module or ""
+            # `from isj import fem` reaches the subpackage, not the vocabulary
+            names = [f"{mod}.{a.name}" if mod == "isj" else mod for a in node.names]
         else:
             continue
         for n in names:
-            out.append((n.split(".")[0], id(node) in module_level))
+            out.append((_part(n), id(node) in module_level))
     return out
 
 
@@ -49,12 +71,18 @@ def source_files():
             yield from sorted(d.rglob("*.py"))
 
 
+def _module_name(rel: str) -> str:
+    """fem/ear/shell -> isj.fem.ear.shell; isj/design -> isj.design."""
+    dotted = rel.replace("/", ".")
+    return dotted if dotted.startswith("isj") else f"isj.{dotted}"
+
+
 def test_import_directions():
     bad = []
     for f in source_files():
         rel = f.relative_to(ROOT).as_posix()
         pkg = rel.split("/")[0]
-        allowed = set(PACKAGES) if rel in TOP_OF_STACK else ALLOWED[pkg]
+        allowed = set(PACKAGES) if _is_top_of_stack(rel) else ALLOWED[pkg]
         for name, _ in project_imports(f):
             if name in PACKAGES and name not in allowed:
                 bad.append(f"{rel} imports {name}")
@@ -74,7 +102,7 @@ def test_gmsh_only_inside_fem_functions():
 def test_packages_import_without_gmsh():
     """With gmsh made unimportable, every package and module still imports."""
     mods = sorted(
-        f.relative_to(ROOT).with_suffix("").as_posix().replace("/", ".")
+        _module_name(f.relative_to(ROOT).with_suffix("").as_posix())
         for f in source_files()
         if f.name != "__main__.py"
     )
@@ -89,8 +117,52 @@ def test_packages_import_without_gmsh():
     assert r.stdout.strip() == "ok"
 
 
-@pytest.mark.parametrize("pkg", ["isj", "fem"])
+@pytest.mark.parametrize("pkg", ["isj", "isj.fem", "isj.lumped", "isj.calibration", "isj.reports"])
 def test_package_has_docstring(pkg):
     import importlib
 
     assert importlib.import_module(pkg).__doc__
+
+
+NAMESPACE_PROBE = (
+    "import importlib.util, sys\n"
+    "assert importlib.util.find_spec('fem') is None, 'a top-level fem is importable'\n"
+    "assert importlib.util.find_spec('lumped') is None, 'a top-level lumped is importable'\n"
+    "import isj.fem, isj.lumped.artifact as a, isj.calibration, isj.reports\n"
+    "a.default_calibration()\n"
+    "print(isj.fem.__file__)\n"
+)
+
+
+def test_one_namespace_editable(tmp_path):
+    """From a folder outside the repository only the isj namespace is there."""
+    r = subprocess.run([sys.executable, "-c", NAMESPACE_PROBE], capture_output=True, text=True, cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert Path(r.stdout.strip()).resolve() == ROOT / "fem" / "__init__.py"
+
+
+def test_one_namespace_wheel(tmp_path):
+    """A wheel built from the repository holds isj/fem, isj/lumped, ... and no top-level fem."""
+    import zipfile
+
+    wheels = tmp_path / "wheels"
+    r = subprocess.run(
+        [sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(wheels), str(ROOT)],
+        capture_output=True,
+        text=True,
+    )
+    assert r.returncode == 0, r.stderr
+    (whl,) = wheels.glob("isj-*.whl")
+    site = tmp_path / "site"
+    with zipfile.ZipFile(whl) as z:
+        names = z.namelist()
+        z.extractall(site)
+    tops = {n.split("/")[0] for n in names if not n.startswith("isj-")}
+    assert tops == {"isj"}, tops
+    assert "isj/lumped/data/default_calibration.json" in names
+    env = {"PYTHONPATH": str(site), "PATH": "/usr/bin:/bin"}
+    r = subprocess.run(
+        [sys.executable, "-c", NAMESPACE_PROBE], capture_output=True, text=True, cwd=tmp_path, env=env
+    )
+    assert r.returncode == 0, r.stderr
+    assert Path(r.stdout.strip()).resolve() == (site / "isj" / "fem" / "__init__.py").resolve()

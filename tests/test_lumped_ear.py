@@ -31,14 +31,14 @@ import pytest
 
 from isj.design import InvalidParameter
 from isj.ear import EarMaterials
-from lumped.ear import DEFAULT_EARDRUM, OUTPUTS, EardrumParameters, ear_model
+from isj.lumped.ear import DEFAULT_EARDRUM, OUTPUTS, EardrumParameters, ear_model
 
 pytest.importorskip("gmsh")
 
 
 @pytest.fixture(scope="module")
 def rigid_fe():
-    from fem.ear.middle_ear import MiddleEarModel
+    from isj.fem.ear.middle_ear import MiddleEarModel
 
     return MiddleEarModel()
 
@@ -53,7 +53,7 @@ def _rel(a, b):
 
 
 def test_shipped_eardrum_parameters_are_the_fe_drums():
-    from fem.ear.lumped_params import eardrum_parameters
+    from isj.fem.ear.lumped_params import eardrum_parameters
 
     d = eardrum_parameters()
     fresh = EardrumParameters.from_dict(d)
@@ -91,7 +91,7 @@ def test_one_dof_body_is_documented_low(rigid_fe_result):
 
 
 def test_embedded_joint_static_against_fe(coarse_model):
-    from fem.ear.middle_ear import MiddleEarModel
+    from isj.fem.ear.middle_ear import MiddleEarModel
 
     fe = MiddleEarModel(joint=coarse_model).solve()
     y = ear_model().static_response()

@@ -45,7 +45,7 @@ def test_point_pairs_agree_with_least_squares_rotations(coarse_model):
 
 def test_mirror_symmetry_in_y(coarse_model):
     """Geometry and load are symmetric about y = 0: the body rotations about x and z vanish."""
-    from fem.probes import rotation_operator
+    from isj.fem.probes import rotation_operator
 
     r = coarse_model.solve()
     u = r.displacement_m.ravel()
@@ -91,7 +91,7 @@ def test_default_pressure_reproduces_thesis_base_case():
     The pressure was fixed on the mesh-converged value (benchmarks/derive_pressure.py);
     the default mesh is within its stated discretisation error of it.
     """
-    from fem.model import PedicleJointModel
+    from isj.fem.model import PedicleJointModel
 
     r = PedicleJointModel(order=2).solve()
     assert r.sum_rad == pytest.approx(THESIS_BASE_SUM_RAD, rel=0.03)
@@ -103,7 +103,7 @@ def test_base_case_converges_under_refinement():
     Converged (benchmarks/mesh_study.py, derive_pressure.py): α = 1.82 ± 0.02, β = 12.13 µrad
     at 29.6 Pa. Measured: default mesh −2.5 % / −2.2 %, R = 1.41 −2.1 % / −1.0 %.
     """
-    from fem.model import PedicleJointModel
+    from isj.fem.model import PedicleJointModel
 
     alpha_conv, beta_conv = 1.82e-6 / 29.6, 12.13e-6 / 29.6  # per Pa
     r1 = PedicleJointModel(order=2, resolution=1.0).solve(pressure_pa=1.0)

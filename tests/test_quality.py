@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from fem.mesh import TetMesh
-from fem.quality import (
+from isj.fem.mesh import TetMesh
+from isj.fem.quality import (
     bandwidth,
     mesh_quality,
     node_adjacency,
@@ -13,7 +13,7 @@ from fem.quality import (
     rcm_permutation,
     tet_quality,
 )
-from fem.structured import box_mesh
+from isj.fem.structured import box_mesh
 
 REGULAR = np.array([[1, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1]], dtype=float) * 1e-5
 CORNER = np.vstack([np.zeros(3), np.eye(3)]) * 1e-5
@@ -88,7 +88,7 @@ def test_rcm_recovers_a_scrambled_band():
 
 
 def test_rcm_does_not_increase_mesh_bandwidth():
-    from fem.mesh import mesh_cantilever
+    from isj.fem.mesh import mesh_cantilever
 
     m = mesh_cantilever(cache_dir=False)
     a = node_adjacency(m)

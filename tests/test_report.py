@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 from isj.cli import main
-from reports import pdf
-from reports.config import ConfigError, ReportConfig, load_config
+from isj.reports import pdf
+from isj.reports.config import ConfigError, ReportConfig, load_config
 
 pypdf = pytest.importorskip("pypdf")
 
@@ -43,7 +43,7 @@ class _Interrupted(Exception):
 def report(tmp_path_factory):
     """Run the coarse report: interrupted at the sweep, then again to the end, then once more."""
     pytest.importorskip("gmsh")
-    import reports.run as run_mod
+    import isj.reports.run as run_mod
 
     tmp = tmp_path_factory.mktemp("report")
     mp = pytest.MonkeyPatch()

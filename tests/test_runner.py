@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from calibration.runner import (
+from isj.calibration.runner import (
     CorruptCacheEntry,
     EvaluationError,
     ResultCache,
@@ -190,7 +190,7 @@ def test_dask_matches_process_pool(tmp_path, settings):
 
 def test_fe_evaluate_design_linear_and_memoised():
     pytest.importorskip("gmsh")
-    from fem import batch
+    from isj.fem import batch
     from isj.design import DEFAULT_PRESSURE_PA, InvalidParameter
 
     s1 = batch.fe_settings(order=1, resolution=0.35)
@@ -226,7 +226,7 @@ def test_fe_evaluate_design_linear_and_memoised():
 def test_fe_evaluator_through_the_runner(tmp_path):
     """fem.batch.evaluate_design pickles into a spawned worker and its results cache."""
     pytest.importorskip("gmsh")
-    from fem import batch
+    from isj.fem import batch
 
     s = batch.fe_settings(order=1, resolution=0.35)
     ds = [{"pedicle_e_pa": 3e9}, {"pedicle_e_pa": 12e9}]

@@ -10,10 +10,10 @@ import math
 import numpy as np
 import pytest
 
-from fem.ear.constraints import ALL, RX, RY, RZ, UX, UY, UZ, node_dofs, rigid_body_modes, rigid_link_transform
-from fem.ear.constraints import solve_static as solve
-from fem.ear.meshes import disk_mesh, icosphere, rectangle_mesh
-from fem.ear.shell import (
+from isj.fem.ear.constraints import ALL, RX, RY, RZ, UX, UY, UZ, node_dofs, rigid_body_modes, rigid_link_transform
+from isj.fem.ear.constraints import solve_static as solve
+from isj.fem.ear.meshes import disk_mesh, icosphere, rectangle_mesh
+from isj.fem.ear.shell import (
     ShellMaterial,
     mass_matrix,
     pressure_load,

@@ -3,12 +3,12 @@
 import numpy as np
 import pytest
 
-from fem.assembly import assemble_regions, build_pattern, combine, lame_unit
-from fem.boundary import Reduction, traction_load
-from fem.convergence import solve_cantilever, timoshenko_tip_deflection
-from fem.solvers import available_backends, make_solver
-from fem.space import build_space
-from fem.structured import box_mesh
+from isj.fem.assembly import assemble_regions, build_pattern, combine, lame_unit
+from isj.fem.boundary import Reduction, traction_load
+from isj.fem.convergence import solve_cantilever, timoshenko_tip_deflection
+from isj.fem.solvers import available_backends, make_solver
+from isj.fem.space import build_space
+from isj.fem.structured import box_mesh
 
 B, H, L = 55e-6, 160e-6, 240e-6  # pedicle: x, y, z (m)
 
@@ -37,7 +37,7 @@ def stiffness(space, youngs, nu):
 def gmsh_box(resolution=3.0):
     """An unstructured gmsh mesh of the pedicle box (irregular tetrahedra)."""
     pytest.importorskip("gmsh")
-    from fem.mesh import mesh_cantilever
+    from isj.fem.mesh import mesh_cantilever
 
     return mesh_cantilever(resolution=resolution, cache_dir=False)
 

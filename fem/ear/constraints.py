@@ -63,7 +63,7 @@ def solve_static(K, f, fixed_dofs, prescribed=None):
 
 def _spd_solve(A, b):
     """Solve with the project's SPD backend when a fast one is installed, else SuperLU (COLAMD)."""
-    from fem.solvers import available_backends, make_solver
+    from isj.fem.solvers import available_backends, make_solver
 
     fast = [name for name in available_backends() if name != "superlu"]
     if not fast:

@@ -295,7 +295,7 @@ def harmonic(
     :class:`EarHarmonicResult`, per Pa when ``pressure_pa`` = 1. One complex factorization
     per frequency (its analysis shared by all frequencies).
     """
-    from fem.solvers import make_complex_symmetric_solver, make_indefinite_solver
+    from isj.fem.solvers import make_complex_symmetric_solver, make_indefinite_solver
 
     freqs = _check_freqs(freq_hz)
     if not np.isfinite(pressure_pa):
@@ -396,7 +396,7 @@ def natural_frequencies(
     masses: EarMasses | None = None,
 ) -> EarModes:
     """The ``n`` lowest natural frequencies of K_r q = ω² M_r q (shift-invert Lanczos about 0)."""
-    from fem.solvers import make_solver
+    from isj.fem.solvers import make_solver
 
     if isinstance(n, bool) or not isinstance(n, int | np.integer) or not 1 <= n < model.n_dofs - 1:
         raise InvalidParameter(f"n = {n!r}: must be an integer in [1, {model.n_dofs - 2}]")

@@ -200,7 +200,7 @@ def lift(geometry: EardrumGeometry, xy_m, on_ring=None, on_manubrium=None) -> np
 
 def _gmsh_flat_mesh(g: EardrumGeometry):
     """Mesh the projected outline with the manubrium embedded; return (xy m, tris, ring, manubrium, umbo)."""
-    from fem.mesh import import_gmsh
+    from isj.fem.mesh import import_gmsh
 
     gmsh = import_gmsh()
     if gmsh.isInitialized():

@@ -312,7 +312,7 @@ class MiddleEarModel:
 
     def solve_reduced(self, K, f_reduced) -> np.ndarray:
         """Full dof vector(s) u = T q with K q = f_reduced, reusing the solver's analysis."""
-        from fem.solvers import make_solver
+        from isj.fem.solvers import make_solver
 
         if self._solver is None:
             self._solver = make_solver(K, self._solver_name)
