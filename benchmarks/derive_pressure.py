@@ -24,6 +24,7 @@ from isj.fem.convergence import richardson
 from isj.fem.export import atomic_write_json
 from isj.fem.geometry import MeshSizes
 from isj.fem.model import PedicleJointModel
+
 from isj.cases import THESIS_BASE_SUM_RAD
 
 OUT = Path(__file__).resolve().parent / "results" / "pressure.json"

@@ -21,12 +21,12 @@ from __future__ import annotations
 import time
 
 import numpy as np
-
 from isj.fem.dynamics import Damping, _shifted_lanczos, _solve_block, harmonic, harmonic_outputs, modes
 from isj.fem.model import PedicleJointModel
-from isj.design import Materials
 from isj.lumped.artifact import default_calibration
 from isj.lumped.dynamics import chain_model, frequency_response
+
+from isj.design import Materials
 
 
 def calibration_frequencies(cal, samples=16, validation=8, seed=100):

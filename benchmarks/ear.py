@@ -18,6 +18,7 @@ import time
 
 from isj.fem.ear.middle_ear import MiddleEarModel
 from isj.fem.model import PedicleJointModel
+
 from isj.cases import THESIS_CASES
 from isj.design import DEFAULT_PRESSURE_PA
 from isj.ear import (

@@ -20,13 +20,13 @@ import tempfile
 import time
 
 import numpy as np
-
 from isj.fem.assembly import assemble_regions, build_pattern, combine, lame_unit
 from isj.fem.boundary import Reduction, clamped_dofs, pressure_load
 from isj.fem.mesh import mesh_pedicle_joint
 from isj.fem.model import PedicleJointModel
 from isj.fem.solvers import make_solver
 from isj.fem.space import build_space
+
 from isj.cases import THESIS_CASES
 from isj.design import DEFAULT_PRESSURE_PA, Geometry, Materials
 

@@ -18,13 +18,13 @@ import sys
 from pathlib import Path
 
 import numpy as np
-
 from isj.calibration.runner import run_designs
 from isj.fem.batch import evaluate_design, fe_settings
-from isj.cases import THESIS_CASES
-from isj.design import DEFAULT_PRESSURE_PA
 from isj.lumped.artifact import default_calibration
 from isj.lumped.model import static_response
+
+from isj.cases import THESIS_CASES
+from isj.design import DEFAULT_PRESSURE_PA
 
 
 def _trend(a, b, i, threshold):

@@ -13,7 +13,6 @@ import argparse
 import time
 
 import numpy as np
-
 from isj.lumped.artifact import default_calibration
 from isj.lumped.model import MODULI, static_response
 

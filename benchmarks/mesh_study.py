@@ -20,6 +20,7 @@ from isj.fem.convergence import joint_study, richardson
 from isj.fem.export import atomic_write_json
 from isj.fem.geometry import DEFAULT_SIZES_M, MeshSizes
 from isj.fem.model import PedicleJointModel
+
 from isj.cases import THESIS_N_TETS
 from isj.design import DEFAULT_PRESSURE_PA
 

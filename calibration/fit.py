@@ -12,9 +12,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from isj.lumped.model import FACTOR_NAMES, MODULI, Lever, equations, moduli_arrays
 
 from isj.design import Geometry
-from isj.lumped.model import FACTOR_NAMES, MODULI, Lever, equations, moduli_arrays
 
 #: Bound on |log factor| during the fit.
 LOG_BOUND = 25.0

@@ -11,10 +11,10 @@ import datetime as _dt
 from importlib import metadata
 
 import numpy as np
-
-from isj.design import Geometry
 from isj.lumped.artifact import Calibration
 from isj.lumped.model import FACTOR_NAMES, Lever, equations, moduli_arrays
+
+from isj.design import Geometry
 
 from .doe import DesignSpace, sample
 from .fit import fit_factors
@@ -149,9 +149,8 @@ def fit_shear(factors, designs: list[dict], fe_freq_hz: np.ndarray, geometry: Ge
     -------
     dict: ``shear_factor`` and the errors of :func:`frequency_errors` at it
     """
-    from scipy.optimize import minimize_scalar
-
     from isj.lumped.dynamics import chain_model
+    from scipy.optimize import minimize_scalar
 
     moduli = {k: np.array([d[k] for d in designs]) for k in designs[0]}
     fe = np.asarray(fe_freq_hz, dtype=float)

@@ -338,6 +338,7 @@ def ear_step(ctx: Context) -> tuple[dict, dict]:
     """The whole cat middle ear (spec 5) with the joint model inside: static response per Pa."""
     from isj.fem.batch import shared_model
     from isj.fem.ear.middle_ear import MiddleEarModel
+
     from isj.ear import EXPERIMENT_STAPES_M_PER_PA, EXPERIMENT_UMBO_M_PER_PA, SPL_100DB_PEAK_PA
 
     cfg = ctx.config

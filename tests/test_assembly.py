@@ -3,7 +3,6 @@
 import numpy as np
 import pytest
 import scipy.sparse as sp
-
 from isj.fem.assembly import assemble_mass, assemble_regions, build_pattern, combine, lame_unit
 from isj.fem.mesh import TetMesh
 from isj.fem.space import build_space

@@ -11,8 +11,9 @@ pytest.importorskip("gmsh")
 from isj.calibration.doe import DesignSpace  # noqa: E402
 from isj.calibration.pipeline import calibrate  # noqa: E402
 from isj.fem.batch import evaluate_design, fe_settings  # noqa: E402
-from isj.cli import main  # noqa: E402
 from isj.lumped.artifact import Calibration, CorruptCalibration, default_calibration  # noqa: E402
+
+from isj.cli import main  # noqa: E402
 
 COARSE_FE = {"order": 2, "resolution": 0.5}
 # pedicle, gap and capsule moduli vary; plate and stapes stay at their defaults

@@ -5,8 +5,8 @@ import math
 
 import numpy as np
 import pytest
-
 from isj.calibration.doe import DesignSpace, corners, grid, sample
+
 from isj.design import InvalidParameter
 
 SPACE = DesignSpace()

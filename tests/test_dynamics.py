@@ -5,7 +5,6 @@ import copy
 import numpy as np
 import pytest
 import scipy.sparse as sp
-
 from isj.fem import dynamics
 from isj.fem.boundary import traction_load
 from isj.fem.dynamics import Damping, _shifted_lanczos, _solve_block, harmonic, modes
@@ -13,6 +12,7 @@ from isj.fem.mesh import TetMesh
 from isj.fem.model import ElasticModel
 from isj.fem.solvers import available_backends, make_complex_symmetric_solver, make_solver
 from isj.fem.structured import box_mesh
+
 from isj.design import InvalidParameter, Materials
 
 B, H = 55e-6, 160e-6  # section: x (bending direction), y

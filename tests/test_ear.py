@@ -12,6 +12,7 @@ from isj.fem.ear.middle_ear import MiddleEarModel, joint_frame  # noqa: E402
 from isj.fem.ear.rigid import axis_of_rotation, grounded_springs, point_map  # noqa: E402
 from isj.fem.ear.shell import NDOF  # noqa: E402
 from isj.fem.model import PedicleJointModel  # noqa: E402
+
 from isj.cases import THESIS_CASES  # noqa: E402
 from isj.design import REGIONS, InvalidParameter, Materials  # noqa: E402
 from isj.ear import EarGeometry, EarMasses, EarMaterials  # noqa: E402

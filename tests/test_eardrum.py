@@ -16,6 +16,7 @@ from isj.fem.ear.eardrum import (  # noqa: E402
     lift,
 )
 from isj.fem.ear.shell import stiffness_matrix, surface_area  # noqa: E402
+
 from isj.design import InvalidParameter  # noqa: E402
 
 CAT = EardrumGeometry()

@@ -4,7 +4,6 @@ from math import factorial
 
 import numpy as np
 import pytest
-
 from isj.fem.elements import (
     barycentric,
     reference_mass,

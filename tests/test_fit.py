@@ -2,9 +2,9 @@
 
 import numpy as np
 import pytest
+from isj.lumped.model import FACTOR_NAMES, MODULI, Lever, equations
 
 from isj.design import Geometry
-from isj.lumped.model import FACTOR_NAMES, MODULI, Lever, equations
 
 pytest.importorskip("casadi")
 from isj.calibration.fit import FitFailed, fit_factors  # noqa: E402

@@ -2,9 +2,9 @@
 
 import numpy as np
 import pytest
+from isj.lumped.model import FACTOR_NAMES, MODULI, Lever, equations, moduli_arrays, static_response
 
 from isj.design import Geometry, InvalidParameter
-from isj.lumped.model import FACTOR_NAMES, MODULI, Lever, equations, moduli_arrays, static_response
 
 ONES = np.ones(len(FACTOR_NAMES))
 

@@ -4,8 +4,6 @@ import json
 
 import numpy as np
 import pytest
-
-from isj.design import Geometry, Materials
 from isj.lumped.artifact import Calibration, CorruptCalibration, default_calibration
 from isj.lumped.dynamics import (
     COORDINATES,
@@ -16,6 +14,8 @@ from isj.lumped.dynamics import (
     frequency_response,
 )
 from isj.lumped.model import FACTOR_NAMES, Lever, static_response
+
+from isj.design import Geometry, Materials
 
 
 def sdof(m=2e-9, c=3e-5, k=40.0, eta=0.0):

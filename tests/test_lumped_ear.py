@@ -28,10 +28,10 @@ import json
 
 import numpy as np
 import pytest
+from isj.lumped.ear import DEFAULT_EARDRUM, OUTPUTS, EardrumParameters, ear_model
 
 from isj.design import InvalidParameter
 from isj.ear import EarMaterials
-from isj.lumped.ear import DEFAULT_EARDRUM, OUTPUTS, EardrumParameters, ear_model
 
 pytest.importorskip("gmsh")
 

@@ -3,7 +3,6 @@
 import numpy as np
 import pytest
 import scipy.sparse as sp
-
 from isj.fem.mesh import TetMesh
 from isj.fem.quality import (
     bandwidth,

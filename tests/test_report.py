@@ -10,10 +10,10 @@ import math
 
 import numpy as np
 import pytest
-
-from isj.cli import main
 from isj.reports import pdf
 from isj.reports.config import ConfigError, ReportConfig, load_config
+
+from isj.cli import main
 
 pypdf = pytest.importorskip("pypdf")
 

@@ -7,7 +7,6 @@ import uuid
 from pathlib import Path
 
 import pytest
-
 from isj.calibration.runner import (
     CorruptCacheEntry,
     EvaluationError,
@@ -191,6 +190,7 @@ def test_dask_matches_process_pool(tmp_path, settings):
 def test_fe_evaluate_design_linear_and_memoised():
     pytest.importorskip("gmsh")
     from isj.fem import batch
+
     from isj.design import DEFAULT_PRESSURE_PA, InvalidParameter
 
     s1 = batch.fe_settings(order=1, resolution=0.35)

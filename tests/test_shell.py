@@ -9,8 +9,18 @@ import math
 
 import numpy as np
 import pytest
-
-from isj.fem.ear.constraints import ALL, RX, RY, RZ, UX, UY, UZ, node_dofs, rigid_body_modes, rigid_link_transform
+from isj.fem.ear.constraints import (
+    ALL,
+    RX,
+    RY,
+    RZ,
+    UX,
+    UY,
+    UZ,
+    node_dofs,
+    rigid_body_modes,
+    rigid_link_transform,
+)
 from isj.fem.ear.constraints import solve_static as solve
 from isj.fem.ear.meshes import disk_mesh, icosphere, rectangle_mesh
 from isj.fem.ear.shell import (
@@ -21,6 +31,7 @@ from isj.fem.ear.shell import (
     surface_area,
     traction_load,
 )
+
 from isj.design import InvalidParameter
 
 STEEL = ShellMaterial(e_pa=200e9, nu=0.3, thickness_m=0.01, density_kg_m3=7800.0)

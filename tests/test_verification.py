@@ -2,7 +2,6 @@
 
 import numpy as np
 import pytest
-
 from isj.fem.assembly import assemble_regions, build_pattern, combine, lame_unit
 from isj.fem.boundary import Reduction, traction_load
 from isj.fem.convergence import solve_cantilever, timoshenko_tip_deflection
