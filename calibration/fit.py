@@ -15,6 +15,7 @@ import numpy as np
 from isj.lumped.model import FACTOR_NAMES, MODULI, Lever, equations, moduli_arrays
 
 from isj.design import Geometry
+from isj.errors import FitFailed  # noqa: F401 - re-exported, its old home
 
 #: Bound on |log factor| during the fit.
 LOG_BOUND = 25.0
@@ -23,14 +24,6 @@ LOG_BOUND = 25.0
 #: keeps the plate face's e^(−s) cos s alive over the design space (s from about 0.03 to 2);
 #: from 1 the fit can settle where that term has died out (s > 5) and the plate term is lost.
 INITIAL_FACTORS = np.array([0.1 if n == "plate_support" else 1.0 for n in FACTOR_NAMES])
-
-
-class FitFailed(RuntimeError):
-    """IPOPT did not converge; ``stats`` holds the solver's statistics."""
-
-    def __init__(self, message: str, stats: dict):
-        super().__init__(message)
-        self.stats = stats
 
 
 @dataclass(frozen=True)

@@ -29,19 +29,9 @@ from pathlib import Path
 
 from tqdm.auto import tqdm
 
+from isj.errors import CorruptCacheEntry, EvaluationError  # noqa: F401 - re-exported, their old home
+
 RECORD_FIELDS = ("key", "design", "settings", "result")
-
-
-class CorruptCacheEntry(UserWarning):
-    """A cached record was unreadable or inconsistent; it was deleted and will be recomputed."""
-
-
-class EvaluationError(RuntimeError):
-    """One or more designs failed to evaluate; ``failures`` lists ``(design, exception)``."""
-
-    def __init__(self, message: str, failures: list[tuple[dict, BaseException]]):
-        super().__init__(message)
-        self.failures = failures
 
 
 def _canonical(obj, where: str = "value"):

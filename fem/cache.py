@@ -22,6 +22,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from isj.errors import CacheWarning  # noqa: F401 - re-exported, its old home
+
 if TYPE_CHECKING:
     from isj.design import Geometry
 
@@ -33,10 +35,6 @@ MESH_FORMAT_VERSION = 1
 
 #: Environment variable overriding the default cache directory.
 CACHE_ENV = "ISJ_CACHE_DIR"
-
-
-class CacheWarning(UserWarning):
-    """A cache entry was unreadable or corrupt and has been recomputed."""
 
 
 def default_cache_dir() -> Path:

@@ -16,6 +16,7 @@ from os import PathLike
 import numpy as np
 
 from isj.design import REGIONS, Geometry
+from isj.errors import MeshError  # noqa: F401 - re-exported, its old home
 
 from .cache import cached_mesh
 from .geometry import GMSH_UNIT_M, MeshSizes, build_cantilever, build_pedicle_joint
@@ -25,10 +26,6 @@ _TET4, _TRI3 = 4, 2
 
 #: Bone regions the capsule touches; the free interface is cut between these and the capsule.
 _SLEEVED = ("stapes", "gap", "plate")
-
-
-class MeshError(RuntimeError):
-    """Gmsh failed to build or mesh the model."""
 
 
 @dataclass(frozen=True, eq=False)

@@ -10,12 +10,10 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
+from isj.errors import PointOutsideBody  # noqa: F401 - re-exported, its old home
+
 from .elements import barycentric, shape_functions, tet_quadrature
 from .space import Space
-
-
-class PointOutsideBody(ValueError):
-    """A probe point lies outside the body it is meant to sample."""
 
 
 def _locate(space: Space, point: np.ndarray, elems: np.ndarray) -> tuple[int, np.ndarray]:

@@ -36,11 +36,9 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from isj.errors import SolverUnavailable  # noqa: F401 - re-exported, its old home
+
 BACKENDS = ("pardiso", "cholmod", "superlu")
-
-
-class SolverUnavailable(RuntimeError):
-    """The requested solver backend is not installed here."""
 
 
 def available_backends() -> list[str]:

@@ -17,12 +17,9 @@ from pathlib import Path
 
 from . import __version__
 from .design import DEFAULT_PRESSURE_PA, Geometry, InvalidParameter, Materials
+from .errors import UsageError
 
 EXIT_USAGE = 2
-
-
-class UsageError(ValueError):
-    """A command-line value is outside its valid range."""
 
 
 class _Parser(argparse.ArgumentParser):

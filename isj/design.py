@@ -13,15 +13,13 @@ import dataclasses
 import math
 from dataclasses import dataclass, fields
 
+from isj.errors import InvalidParameter  # noqa: F401 - re-exported, its old home
+
 #: Region names in region-id order. The id is the index in this tuple.
 REGIONS: tuple[str, ...] = ("stapes", "gap", "plate", "pedicle", "incus", "capsule")
 
 #: Regions made of bone (spec §2.1), for the default density.
 BONE_REGIONS: frozenset[str] = frozenset({"stapes", "plate", "pedicle", "incus"})
-
-
-class InvalidParameter(ValueError):
-    """A design parameter is non-physical or inconsistent with the others."""
 
 
 def check_positive(name: str, value: float, unit: str) -> None:

@@ -15,6 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
+from isj.errors import CorruptCalibration  # noqa: F401 - re-exported, its old home
+
 from .model import FACTOR_NAMES
 
 FORMAT_VERSION = 3  # 2: the plate_support factor; 3: load_sharing (lumped.model)
@@ -22,10 +24,6 @@ FORMAT_VERSION = 3  # 2: the plate_support factor; 3: load_sharing (lumped.model
 #: Factors a file of an older format lacks, with the value that makes the current
 #: equations those of that format exactly.
 _ADDED_FACTORS = {2: {"load_sharing": 0.0}}
-
-
-class CorruptCalibration(ValueError):
-    """A calibration file is missing, unreadable or inconsistent."""
 
 
 @dataclass(frozen=True)

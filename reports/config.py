@@ -29,10 +29,7 @@ from pathlib import Path
 
 from isj.design import DEFAULT_PRESSURE_PA, Geometry, InvalidParameter, Materials
 from isj.ear import EarMaterials
-
-
-class ConfigError(ValueError):
-    """A report configuration names an unknown key or holds a bad value."""
+from isj.errors import ConfigError  # noqa: F401 - re-exported, its old home
 
 
 @dataclass(frozen=True)

@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from isj.atomic import atomic_write, atomic_write_json
+from isj.errors import CorruptCacheEntry
 
 
 def default_cache_dir() -> Path:
@@ -57,7 +58,9 @@ class StepStore:
                     arrays = {k: z[k] for k in z.files}
             return record["result"], arrays
         except (OSError, ValueError, KeyError) as exc:
-            warnings.warn(f"report cache entry {jpath} is damaged ({exc}); recomputing", stacklevel=2)
+            warnings.warn(
+                f"report cache entry {jpath} is damaged ({exc}); recomputing", CorruptCacheEntry, stacklevel=2
+            )
             return None
 
     def put(self, name: str, key: str, result: dict, arrays: dict[str, np.ndarray] | None = None) -> None:
