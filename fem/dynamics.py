@@ -34,6 +34,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from isj.design import DEFAULT_PRESSURE_PA, InvalidParameter, Materials
+from isj.validate import check_frequencies
 
 from .solvers import make_complex_symmetric_solver, make_indefinite_solver, make_solver
 
@@ -60,13 +61,6 @@ class Damping:
             v = getattr(self, name)
             if not np.isfinite(v) or v < 0:
                 raise InvalidParameter(f"{name} = {v!r}: must be a finite number >= 0")
-
-
-def _check_freqs(freq_hz) -> np.ndarray:
-    f = np.atleast_1d(np.asarray(freq_hz, dtype=float))
-    if f.ndim != 1 or np.any(~np.isfinite(f)) or np.any(f < 0):
-        raise InvalidParameter("freq_hz: every frequency must be a finite number >= 0 (Hz)")
-    return f
 
 
 def modes(model, materials: Materials | None = None, n: int = 6):
@@ -111,7 +105,7 @@ def harmonic(
         raise InvalidParameter(f"method = {method!r}: must be 'auto' or 'direct'")
     materials = materials or Materials()
     damping = damping or Damping()
-    freqs = _check_freqs(freq_hz)
+    freqs = check_frequencies(freq_hz)
     red = model.reduction
     kd = model.stiffness_data(materials)  # full-pattern data; K and M share the pattern
     md = model.mass_data(materials)
@@ -246,3 +240,38 @@ def harmonic_outputs(
     ux = u.reshape(u.shape[0], -1, 3)[:, :, 0] @ w / w.sum()
     ang = model.angles[:2] @ u.T
     return {"alpha_rad": ang[0], "beta_rad": ang[1], "incus_ux_m": ux}
+
+
+#: Outputs of :func:`harmonic_outputs` and :func:`harmonic_response`, and their units.
+HARMONIC_OUTPUTS = ("alpha_rad", "beta_rad", "incus_ux_m")
+HARMONIC_UNITS = ("rad", "rad", "m")
+
+
+def harmonic_response(
+    model,
+    freq_hz,
+    materials: Materials | None = None,
+    damping: Damping | None = None,
+    pressure_pa: float = DEFAULT_PRESSURE_PA,
+):
+    """:func:`harmonic_outputs` as an :class:`isj.responses.FrequencyResponse` (same numbers).
+
+    Parameters
+    ----------
+    model : :class:`fem.model.PedicleJointModel`
+    freq_hz : frequencies (Hz), >= 0
+    materials : moduli (Pa), ν and densities (kg/m³)
+    damping : :class:`Damping` (default: Rayleigh b = 1e-4 s)
+    pressure_pa : pressure amplitude on the incus's face (Pa)
+
+    Returns
+    -------
+    FrequencyResponse : α, β (rad, point pairs) and the loaded face's mean u_x (m), the outputs
+    of the lumped chain (:data:`isj.lumped.dynamics.OUTPUTS`)
+    """
+    from isj.responses import FrequencyResponse
+
+    out = harmonic_outputs(model, freq_hz, materials, damping, pressure_pa)
+    f = np.atleast_1d(np.asarray(freq_hz, dtype=float))
+    H = np.stack([out[k] for k in HARMONIC_OUTPUTS], axis=1)
+    return FrequencyResponse(f, H, HARMONIC_OUTPUTS, HARMONIC_UNITS, input_amplitude=pressure_pa)

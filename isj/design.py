@@ -14,6 +14,7 @@ import math
 from dataclasses import dataclass, fields
 
 from isj.errors import InvalidParameter  # noqa: F401 - re-exported, its old home
+from isj.validate import check_poisson
 
 #: Region names in region-id order. The id is the index in this tuple.
 REGIONS: tuple[str, ...] = ("stapes", "gap", "plate", "pedicle", "incus", "capsule")
@@ -128,9 +129,7 @@ class Materials:
     def __post_init__(self) -> None:
         for name in REGIONS:
             check_positive(f"{name}_e_pa", getattr(self, f"{name}_e_pa"), "Pa")
-        nu = self.nu
-        if not isinstance(nu, int | float) or not math.isfinite(nu) or not -1.0 < nu < 0.5:
-            raise InvalidParameter(f"nu = {nu!r}: Poisson's ratio must lie in (-1, 0.5)")
+        check_poisson(self.nu, "nu")
         check_positive("bone_density_kg_m3", self.bone_density_kg_m3, "kg/m^3")
         check_positive("soft_density_kg_m3", self.soft_density_kg_m3, "kg/m^3")
 

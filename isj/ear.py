@@ -40,6 +40,7 @@ import math
 from dataclasses import dataclass
 
 from .design import Geometry, InvalidParameter, check_positive
+from .validate import check_poisson
 
 Vector = tuple[float, float, float]
 
@@ -287,9 +288,7 @@ class EarMaterials:
         check_positive("footplate_e_pa", self.footplate_e_pa, "Pa")
         check_positive("drum_thickness_m", self.drum_thickness_m, "m")
         for name in ("drum_nu", "footplate_nu"):
-            nu = getattr(self, name)
-            if isinstance(nu, bool) or not isinstance(nu, int | float) or not -1.0 < nu < 0.5:
-                raise InvalidParameter(f"{name} = {nu!r}: Poisson's ratio must lie in (-1, 0.5)")
+            check_poisson(getattr(self, name), name)
         for name in (
             "malleus_ligament_n_m",
             "incudal_lateral_n_m",

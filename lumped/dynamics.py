@@ -50,10 +50,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from isj.design import DEFAULT_PRESSURE_PA, Geometry, InvalidParameter, Materials
+from isj.validate import check_frequencies
 
 from .model import FACTOR_NAMES, Lever, equations, moduli_arrays
 
 OUTPUTS = ("alpha_rad", "beta_rad", "incus_ux_m")
+#: Units of :data:`OUTPUTS`' amplitudes (at a given pressure amplitude).
+UNITS = {"alpha_rad": "rad", "beta_rad": "rad", "incus_ux_m": "m"}
 
 
 @dataclass(frozen=True)
@@ -82,9 +85,7 @@ class SecondOrderModel:
         mode's dynamic part (so that ω = 0 is the static solve), above it as the plain modal
         sum; otherwise one dense solve per design and frequency.
         """
-        f = np.atleast_1d(np.asarray(freq_hz, dtype=float))
-        if f.ndim != 1 or np.any(~np.isfinite(f)) or np.any(f < 0):
-            raise InvalidParameter("freq_hz: every frequency must be a finite number >= 0 (Hz)")
+        f = check_frequencies(freq_hz)
         w = 2 * np.pi * f
         batched = self.M.ndim == 3
         M, E, K, B, C = (x if batched else x[None] for x in (self.M, self.E, self.K, self.B, self.C))
@@ -485,3 +486,27 @@ def chain_model(
 def frequency_response(model: SecondOrderModel, freq_hz, pressure_pa: float = DEFAULT_PRESSURE_PA):
     """Complex α, β (rad) and incus u_x (m) at ``freq_hz`` for a pressure amplitude (Pa)."""
     return model.freq_resp(freq_hz)[..., 0] * pressure_pa
+
+
+def chain_response(model: SecondOrderModel, freq_hz, pressure_pa: float = DEFAULT_PRESSURE_PA):
+    """The chain's response at ``freq_hz`` (Hz) to a pressure amplitude (Pa), as a FrequencyResponse.
+
+    The numbers of :func:`frequency_response` (bit for bit), for one design.
+
+    Parameters
+    ----------
+    model : one design's :func:`chain_model` (no design axis)
+    freq_hz : frequencies (Hz), >= 0
+    pressure_pa : pressure amplitude on the incus's face (Pa), > 0
+
+    Returns
+    -------
+    isj.responses.FrequencyResponse : outputs :data:`OUTPUTS` (rad, rad, m), one input (the pressure)
+    """
+    from isj.responses import FrequencyResponse
+
+    if model.M.ndim != 2:
+        raise InvalidParameter("model: one design only (no design axis); use model.freq_resp for many")
+    f = np.atleast_1d(np.asarray(freq_hz, dtype=float))
+    H = model.freq_resp(f) * pressure_pa
+    return FrequencyResponse(f, H, OUTPUTS, tuple(UNITS[k] for k in OUTPUTS), input_amplitude=pressure_pa)

@@ -45,6 +45,7 @@ import scipy.sparse.linalg as spla
 
 from isj.design import InvalidParameter, Materials
 from isj.ear import EarMasses, EarMaterials
+from isj.validate import check_frequencies
 
 from ..dynamics import Damping
 from .constraints import rigid_body_modes
@@ -76,13 +77,6 @@ def rigid_mass(mass_kg: float, gyration_m: float, centroid_m, reference_m) -> np
     M = mass_kg * G.T @ G
     M[3:, 3:] += mass_kg * gyration_m**2 * np.eye(3)
     return M
-
-
-def _check_freqs(freq_hz) -> np.ndarray:
-    f = np.atleast_1d(np.asarray(freq_hz, dtype=float))
-    if f.ndim != 1 or f.size == 0 or np.any(~np.isfinite(f)) or np.any(f < 0):
-        raise InvalidParameter("freq_hz: must be one or more finite numbers >= 0 (Hz)")
-    return f
 
 
 def footplate_mass_matrix(model, ear_materials: EarMaterials | None = None, masses: EarMasses | None = None):
@@ -247,6 +241,7 @@ class EarHarmonicResult:
     static: object = None
     timings_s: dict = field(default_factory=dict)
     displacement: np.ndarray | None = field(default=None, repr=False)
+    pressure_pa: float = 1.0
 
     def outputs(self) -> np.ndarray:
         """(n, 4) complex, columns :data:`OUTPUTS` (α, β zero for the rigid joint), as the lumped ear's."""
@@ -254,6 +249,20 @@ class EarHarmonicResult:
         a = np.zeros(n, complex) if self.alpha_rad_per_pa is None else self.alpha_rad_per_pa
         b = np.zeros(n, complex) if self.beta_rad_per_pa is None else self.beta_rad_per_pa
         return np.column_stack([self.umbo_m_per_pa, self.stapes_m_per_pa, a, b])
+
+    def response(self):
+        """:meth:`outputs` as an :class:`isj.responses.FrequencyResponse` (m, m, rad, rad).
+
+        At the ear-canal pressure amplitude :attr:`pressure_pa` (Pa; 1: per Pa), the outputs
+        and their order those of :meth:`isj.lumped.ear.LumpedEar.response`, so the two compare
+        name by name.
+        """
+        from isj.responses import FrequencyResponse
+
+        units = ("m", "m", "rad", "rad")
+        return FrequencyResponse(
+            self.freq_hz, self.outputs(), OUTPUTS, units, input_amplitude=self.pressure_pa
+        )
 
     def to_dict(self) -> dict:
         def c(v):
@@ -297,7 +306,7 @@ def harmonic(
     """
     from isj.fem.solvers import make_complex_symmetric_solver, make_indefinite_solver
 
-    freqs = _check_freqs(freq_hz)
+    freqs = check_frequencies(freq_hz)
     if not np.isfinite(pressure_pa):
         raise InvalidParameter(f"pressure_pa = {pressure_pa!r} Pa: must be a finite number")
     damping = damping or EarDamping()
@@ -363,6 +372,7 @@ def harmonic(
         footplate_m_per_pa=fp,
         umbo_direction=d_umbo,
         static=static,
+        pressure_pa=float(pressure_pa),
         timings_s={
             "stiffness_mass": t1 - t0,
             "factor_solve": t3 - t2,

@@ -35,6 +35,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from isj.design import InvalidParameter, check_positive
+from isj.validate import check_poisson
 
 #: Dofs per node: ux, uy, uz, θx, θy, θz.
 NDOF = 6
@@ -71,9 +72,7 @@ class ShellMaterial:
 
     def __post_init__(self) -> None:
         check_positive("e_pa", self.e_pa, "Pa")
-        nu = self.nu
-        if not isinstance(nu, int | float) or not math.isfinite(nu) or not -1.0 < nu < 0.5:
-            raise InvalidParameter(f"nu = {nu!r}: Poisson's ratio must lie in (-1, 0.5)")
+        check_poisson(self.nu, "nu")
         check_positive("thickness_m", self.thickness_m, "m")
         check_positive("density_kg_m3", self.density_kg_m3, "kg/m^3")
 

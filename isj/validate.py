@@ -1,0 +1,86 @@
+"""Checks of inputs shared by every model: frequencies and Poisson's ratios.
+
+Each check raises :class:`~isj.errors.InvalidParameter` with one line naming
+the parameter and its valid range, and returns the value in the form the
+models compute with. The FE chain, the lumped chain, the FE ear and the lumped
+ear all check frequencies here, so they agree on what they refuse (an empty
+list included).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from isj.errors import InvalidParameter
+
+
+def check_frequencies(freq_hz, name: str = "freq_hz") -> np.ndarray:
+    """Frequencies (Hz) as a 1-D float array, refusing anything a response cannot be computed at.
+
+    Parameters
+    ----------
+    freq_hz : float or sequence of float
+        One frequency or several (Hz), each finite and >= 0 (0 Hz is the static response).
+    name : str
+        Parameter name for the message.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape (n,), n >= 1, float.
+
+    Raises
+    ------
+    InvalidParameter
+        Empty input, more than one dimension, a non-number, a non-finite or negative value.
+    """
+    rule = "must be one or more finite numbers >= 0 (Hz)"
+    try:
+        f = np.atleast_1d(np.asarray(freq_hz, dtype=float))
+    except (TypeError, ValueError):
+        raise InvalidParameter(f"{name}: {type(freq_hz).__name__} {rule}") from None
+    if f.ndim != 1 or f.size == 0 or not np.all(np.isfinite(f)) or np.any(f < 0):
+        # the offending value, not the whole array: the message stays one short line
+        bad = f.ravel()[~(np.isfinite(f.ravel()) & (f.ravel() >= 0))]
+        shown = "empty" if f.size == 0 else f"shape {f.shape}" if f.ndim != 1 else f"holds {float(bad[0])!r}"
+        raise InvalidParameter(f"{name} {shown}: {rule}")
+    return f
+
+
+def check_band(fmin_hz: float, fmax_hz: float, names: tuple[str, str] = ("fmin_hz", "fmax_hz")) -> None:
+    """A frequency band: both ends finite with 0 < fmin < fmax (Hz).
+
+    Parameters
+    ----------
+    fmin_hz, fmax_hz : float
+        Lowest and highest frequency (Hz).
+    names : (str, str)
+        Parameter names for the message (``("--fmin-hz", "--fmax-hz")`` on the command line).
+    """
+    ok = all(isinstance(v, int | float) and not isinstance(v, bool) for v in (fmin_hz, fmax_hz))
+    if not ok or not (math.isfinite(fmin_hz) and math.isfinite(fmax_hz) and 0 < fmin_hz < fmax_hz):
+        raise InvalidParameter(
+            f"{names[0]}/{names[1]} = {fmin_hz!r}/{fmax_hz!r}: need finite 0 < fmin < fmax (Hz)"
+        )
+
+
+def check_poisson(nu, name: str = "nu") -> float:
+    """Poisson's ratio as a float, refusing booleans, non-numbers and values outside (-1, 0.5).
+
+    Parameters
+    ----------
+    nu : float
+        Poisson's ratio (dimensionless); -1 and 0.5 bound the ratios of a stable isotropic solid.
+    name : str
+        Parameter name for the message.
+
+    Returns
+    -------
+    float
+    """
+    number = isinstance(nu, int | float) and not isinstance(nu, bool)
+    if not number or not math.isfinite(nu) or not -1.0 < nu < 0.5:
+        raise InvalidParameter(f"{name} = {nu!r}: Poisson's ratio must be a finite number in (-1, 0.5)")
+    return float(nu)
