@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from isj.caches import MESH_CACHE_ENV, mesh_cache_dir
 from isj.errors import CacheWarning  # noqa: F401 - re-exported, its old home
 
 if TYPE_CHECKING:
@@ -34,13 +35,10 @@ if TYPE_CHECKING:
 MESH_FORMAT_VERSION = 1
 
 #: Environment variable overriding the default cache directory.
-CACHE_ENV = "ISJ_CACHE_DIR"
+CACHE_ENV = MESH_CACHE_ENV
 
-
-def default_cache_dir() -> Path:
-    """``$ISJ_CACHE_DIR`` if set, else ``~/.cache/isj/meshes``."""
-    env = os.environ.get(CACHE_ENV)
-    return Path(env).expanduser() if env else Path.home() / ".cache" / "isj" / "meshes"
+#: ``$ISJ_CACHE_DIR`` if set, else ``~/.cache/isj/meshes`` (one definition, in :mod:`isj.caches`).
+default_cache_dir = mesh_cache_dir
 
 
 def resolve_cache_dir(cache_dir: str | os.PathLike | bool | None) -> Path | None:

@@ -19,17 +19,13 @@ import time
 from pathlib import Path
 
 from isj.atomic import atomic_write_json, atomic_write_text
+from isj.caches import fe_cache_dir
 
 from .config import ReportConfig
 from .steps import STEPS, Context, step_inputs
 from .store import StepStore, default_cache_dir, step_key
 
-
-def _fe_cache_dir() -> Path:
-    import os
-
-    env = os.environ.get("ISJ_FE_CACHE_DIR")
-    return Path(env) if env else Path.home() / ".cache" / "isj" / "fe"
+_fe_cache_dir = fe_cache_dir  # the default FE result cache, shared with the CLI and the benchmarks
 
 
 def load_calibration(config: ReportConfig):

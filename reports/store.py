@@ -18,13 +18,11 @@ from pathlib import Path
 import numpy as np
 
 from isj.atomic import atomic_write, atomic_write_json
+from isj.caches import report_cache_dir
 from isj.errors import CorruptCacheEntry
 
-
-def default_cache_dir() -> Path:
-    """``$ISJ_FE_CACHE_DIR/report``, or ``~/.cache/isj/fe/report``."""
-    env = os.environ.get("ISJ_FE_CACHE_DIR")
-    return (Path(env) if env else Path.home() / ".cache" / "isj" / "fe") / "report"
+#: ``$ISJ_FE_CACHE_DIR/report``, or ``~/.cache/isj/fe/report`` (one definition, in :mod:`isj.caches`).
+default_cache_dir = report_cache_dir
 
 
 def step_key(name: str, inputs) -> str:
