@@ -272,6 +272,6 @@ def harmonic_response(
     from isj.responses import FrequencyResponse
 
     out = harmonic_outputs(model, freq_hz, materials, damping, pressure_pa)
-    f = np.atleast_1d(np.asarray(freq_hz, dtype=float))
+    f = check_frequencies(freq_hz)
     H = np.stack([out[k] for k in HARMONIC_OUTPUTS], axis=1)
     return FrequencyResponse(f, H, HARMONIC_OUTPUTS, HARMONIC_UNITS, input_amplitude=pressure_pa)

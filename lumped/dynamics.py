@@ -507,6 +507,6 @@ def chain_response(model: SecondOrderModel, freq_hz, pressure_pa: float = DEFAUL
 
     if model.M.ndim != 2:
         raise InvalidParameter("model: one design only (no design axis); use model.freq_resp for many")
-    f = np.atleast_1d(np.asarray(freq_hz, dtype=float))
+    f = check_frequencies(freq_hz)
     H = model.freq_resp(f) * pressure_pa
     return FrequencyResponse(f, H, OUTPUTS, tuple(UNITS[k] for k in OUTPUTS), input_amplitude=pressure_pa)

@@ -67,6 +67,7 @@ import numpy as np
 
 from isj.design import Geometry, InvalidParameter
 from isj.ear import EarGeometry, EarMasses, EarMaterials
+from isj.validate import check_frequencies
 
 from .dynamics import SecondOrderModel, joint_coupling
 
@@ -240,6 +241,21 @@ class LumpedEar:
     def freq_resp(self, freq_hz, pressure_pa: float = 1.0) -> np.ndarray:
         """Complex outputs at ``freq_hz`` (Hz): (n_freq, 4) or (n_design, n_freq, 4) (SI)."""
         return self.system.freq_resp(freq_hz)[..., 0] * pressure_pa
+
+    def response(self, freq_hz, pressure_pa: float = 1.0):
+        """:meth:`freq_resp` as an :class:`isj.responses.FrequencyResponse` (one design; same numbers).
+
+        Outputs :data:`OUTPUTS` in m and rad at the ear-canal pressure amplitude ``pressure_pa``
+        (Pa; 1: per Pa).
+        """
+        from isj.responses import FrequencyResponse
+
+        if self.batched:
+            raise InvalidParameter("LumpedEar.response: one design only; use freq_resp for many")
+        f = check_frequencies(freq_hz)
+        H = self.system.freq_resp(f) * pressure_pa
+        units = tuple(UNITS[k].removesuffix("/Pa") for k in OUTPUTS)
+        return FrequencyResponse(f, H, OUTPUTS, units, input_amplitude=pressure_pa)
 
     def natural_frequencies_hz(self) -> tuple[np.ndarray, np.ndarray]:
         """Undamped natural frequencies (Hz) and modal damping ratios, sorted."""
