@@ -105,17 +105,27 @@ def cantilever_study(
 
 
 def plot_study(rows: list[dict], path, title: str = "", ax=None):
-    """Log-log plot of |relative error| of the maximum displacement against tets."""
-    import matplotlib
+    """Displacement against tetrahedra (log x): FE max |u|, FE mean tip u and Timoshenko's value.
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    Parameters
+    ----------
+    rows : :func:`cantilever_study`'s rows
+    path : file to write (format from the suffix) when ``ax`` is None
+    title : axes title
+    ax : matplotlib Axes to draw on (nothing is written then), or None for a new figure
 
+    Returns
+    -------
+    the Axes drawn on
+    """
     from .export import atomic_write
 
     own = ax is None
-    if own:
-        fig, ax = plt.subplots(figsize=(5.5, 4))
+    if own:  # a bare Figure, no pyplot: the caller's backend is left alone
+        from matplotlib.figure import Figure
+
+        fig = Figure(figsize=(5.5, 4))
+        ax = fig.subplots()
     n = [r["n_tets"] for r in rows]
     ax.plot(n, [r["max_disp_m"] for r in rows], "o-", label="FE max |u|")
     ax.plot(n, [r["tip_mean_m"] for r in rows], "s--", label="FE mean tip u")
@@ -128,7 +138,6 @@ def plot_study(rows: list[dict], path, title: str = "", ax=None):
     if own:
         fig.tight_layout()
         atomic_write(path, lambda tmp: fig.savefig(tmp, format=str(path).rsplit(".", 1)[-1]))
-        plt.close(fig)
     return ax
 
 

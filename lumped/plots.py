@@ -20,16 +20,16 @@ def bode(freq_hz, response, checks=(), outputs=("alpha_rad", "beta_rad"), axes=N
     freq_hz : (n,) frequencies (Hz)
     response : (n, n_out) complex amplitudes, columns in the order of ``outputs``
     checks : dicts with ``freq_hz`` and ``fe_<output>`` = [re, im] (FE spot checks)
-    axes : (magnitude axis, phase axis) or None for a new figure
+    axes : (magnitude axis, phase axis) or None for a new ``matplotlib.figure.Figure``
 
     Returns
     -------
     list of matplotlib artists
     """
-    import matplotlib.pyplot as plt
+    if axes is None:  # a bare Figure: no pyplot, so the caller's backend and figure list stay untouched
+        from matplotlib.figure import Figure
 
-    if axes is None:
-        _, axes = plt.subplots(2, 1, sharex=True, figsize=(7, 6))
+        axes = Figure(figsize=(7, 6)).subplots(2, 1, sharex=True)
     ax_mag, ax_ph = axes
     artists = []
     for j, key in enumerate(outputs):
@@ -62,15 +62,13 @@ def bode(freq_hz, response, checks=(), outputs=("alpha_rad", "beta_rad"), axes=N
 
 def save_bode(path, freq_hz, response, checks=()) -> None:
     """Draw :func:`bode` on a new figure and write it atomically (format from the suffix)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure
 
     from isj.atomic import atomic_write
 
-    fig, axes = plt.subplots(2, 1, sharex=True, figsize=(7, 6))
+    # Figure.savefig picks a canvas for the file format itself: no backend is selected
+    fig = Figure(figsize=(7, 6))
+    axes = fig.subplots(2, 1, sharex=True)
     bode(freq_hz, response, checks, axes=axes)
     fig.tight_layout()
     atomic_write(path, lambda tmp: fig.savefig(tmp, format=str(path).rsplit(".", 1)[-1]))
-    plt.close(fig)
