@@ -1,11 +1,13 @@
 """Disk cache of meshes, keyed by a hash of everything the mesh depends on.
 
 Key: sha256 of the canonical JSON of (kind, geometry fields, mesh sizes,
-resolution, gmsh version, :data:`MESH_FORMAT_VERSION`). Entries are ``.npz``
-files (no pickles) written atomically: a temporary file in the same directory,
-then :func:`os.replace`, so a reader never sees half a file. An entry that
-cannot be read, or whose stored content hash does not match its arrays, is
-reported with :func:`warnings.warn` and recomputed, never used.
+resolution, gmsh version, :data:`MESH_FORMAT_VERSION`, and the digest of the
+meshing code: :mod:`isj.fem.geometry`, :mod:`isj.fem.mesh` and every isj module
+they import, read through the import system by :func:`isj.digest.code_digest`).
+Entries are ``.npz`` files (no pickles) with a checksum of their arrays
+(:mod:`isj.cachefile`), written atomically. An entry that cannot be read, fails
+its checksum or whose mesh content hash does not match is reported with one
+:class:`~isj.errors.CorruptCacheEntry` warning, deleted and recomputed, never used.
 """
 
 from __future__ import annotations
@@ -14,7 +16,6 @@ import dataclasses
 import hashlib
 import json
 import os
-import tempfile
 import warnings
 from collections.abc import Callable
 from pathlib import Path
@@ -22,7 +23,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from isj.cachefile import DamagedEntry, discard, read_npz_entry, write_npz_entry
 from isj.caches import MESH_CACHE_ENV, mesh_cache_dir
+from isj.digest import code_digest
 from isj.errors import CacheWarning  # noqa: F401 - re-exported, its old home
 
 if TYPE_CHECKING:
@@ -57,12 +60,8 @@ def _gmsh_version() -> str:
 
 
 def _builder_digest() -> str:
-    """sha256 of the meshing code: editing the builder invalidates old entries."""
-    here = Path(__file__).resolve().parent
-    h = hashlib.sha256()
-    for name in ("geometry.py", "mesh.py"):
-        h.update((here / name).read_bytes())
-    return h.hexdigest()
+    """sha256 of the meshing code and what it imports: editing the builder invalidates old entries."""
+    return code_digest("isj.fem.geometry", "isj.fem.mesh")
 
 
 def cache_key(kind: str, geometry: Geometry, sizes: MeshSizes) -> str:
@@ -84,8 +83,7 @@ _FACE_PREFIX = "face__"
 
 
 def save_mesh(mesh: TetMesh, path: Path) -> None:
-    """Write ``mesh`` to ``path`` (.npz) atomically."""
-    path.parent.mkdir(parents=True, exist_ok=True)
+    """Write ``mesh`` to ``path`` (.npz, with a checksum) atomically."""
     arrays = {
         "points": mesh.points,
         "tets": mesh.tets,
@@ -95,24 +93,24 @@ def save_mesh(mesh: TetMesh, path: Path) -> None:
         "format": np.array(MESH_FORMAT_VERSION),
     }
     arrays.update({_FACE_PREFIX + k: v for k, v in mesh.faces.items()})
-    fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as f:
-            np.savez(f, **arrays)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    write_npz_entry(path, arrays)
 
 
 def load_mesh(path: Path) -> TetMesh:
-    """Read a mesh written by :func:`save_mesh`; raise ValueError if it is inconsistent."""
+    """Read a mesh written by :func:`save_mesh`.
+
+    Raises
+    ------
+    DamagedEntry
+        Unreadable, failed checksum, other format, or a mesh whose content hash differs.
+    """
     from .mesh import TetMesh
 
-    with np.load(path, allow_pickle=False) as z:
+    z, _ = read_npz_entry(path)
+    try:
         if int(z["format"]) != MESH_FORMAT_VERSION:
-            raise ValueError(f"format {int(z['format'])} != {MESH_FORMAT_VERSION}")
-        faces = {k[len(_FACE_PREFIX) :]: z[k] for k in z.files if k.startswith(_FACE_PREFIX)}
+            raise DamagedEntry(f"format {int(z['format'])} != {MESH_FORMAT_VERSION}")
+        faces = {k[len(_FACE_PREFIX) :]: z[k] for k in z if k.startswith(_FACE_PREFIX)}
         mesh = TetMesh(
             points=z["points"],
             tets=z["tets"],
@@ -121,8 +119,10 @@ def load_mesh(path: Path) -> TetMesh:
             faces=faces,
         )
         stored = str(z["content_hash"])
+    except (KeyError, TypeError, ValueError) as exc:  # arrays missing or of the wrong kind
+        raise DamagedEntry(f"{type(exc).__name__}: {exc}") from exc
     if mesh.content_hash() != stored:
-        raise ValueError("content hash does not match the stored arrays")
+        raise DamagedEntry("content hash does not match the stored arrays")
     return mesh
 
 
@@ -145,12 +145,8 @@ def cached_mesh(
     if path.exists():
         try:
             return load_mesh(path)
-        except Exception as exc:  # any failure to read means: do not trust it
-            warnings.warn(
-                f"mesh cache entry {path} is unreadable ({exc}); recomputing",
-                CacheWarning,
-                stacklevel=3,
-            )
+        except DamagedEntry as exc:
+            discard(path, "mesh", str(exc), stacklevel=3)
     mesh = compute()
     try:
         save_mesh(mesh, path)

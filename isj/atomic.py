@@ -1,21 +1,47 @@
-"""Atomic file writes: a result file is either complete or absent, never half-written."""
+"""Atomic file writes: a result file is either complete or absent, never half-written.
+
+Every writer in isj goes through :func:`atomic_write`: the content is written to
+a temporary file in the target's own folder (so the final rename never crosses
+a file system), then moved into place with :func:`os.replace`, which readers see
+as one step. If writing fails or is interrupted, the temporary file is removed
+and any previous file at the target is left as it was.
+"""
 
 from __future__ import annotations
 
 import json
 import os
 import tempfile
+from collections.abc import Callable
 from pathlib import Path
 
 
-def atomic_write(path: str | os.PathLike, write) -> Path:
-    """Call ``write(tmp_path)`` then move the file into place (no half-written output)."""
+def atomic_write(path: str | os.PathLike, write: Callable[[str], object], *, fsync: bool = False) -> Path:
+    """Call ``write(tmp_path)``, then move the file it wrote onto ``path``.
+
+    Parameters
+    ----------
+    path : the file to (re)place; its folder is created if needed
+    write : writes the whole content to the path it is given (a file name
+        ending in ``path``'s suffix, so writers that read the format from the
+        suffix still work)
+    fsync : flush the file to disk before the rename (for cache entries that
+        must survive a power cut as either the old or the new version)
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=path.parent)
     os.close(fd)
     try:
         write(tmp)
+        if fsync:
+            with open(tmp, "r+b") as f:
+                os.fsync(f.fileno())
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
@@ -23,12 +49,16 @@ def atomic_write(path: str | os.PathLike, write) -> Path:
     return path
 
 
-def atomic_write_text(path: str | os.PathLike, text: str) -> Path:
-    def write(tmp):
-        Path(tmp).write_text(text)
-
-    return atomic_write(path, write)
+def atomic_write_bytes(path: str | os.PathLike, data: bytes, *, fsync: bool = False) -> Path:
+    """Write ``data`` to ``path`` atomically (see :func:`atomic_write`)."""
+    return atomic_write(path, lambda tmp: Path(tmp).write_bytes(data), fsync=fsync)
 
 
-def atomic_write_json(path: str | os.PathLike, obj) -> Path:
-    return atomic_write_text(path, json.dumps(obj, indent=2, sort_keys=True) + "\n")
+def atomic_write_text(path: str | os.PathLike, text: str, *, fsync: bool = False) -> Path:
+    """Write ``text`` (UTF-8) to ``path`` atomically (see :func:`atomic_write`)."""
+    return atomic_write_bytes(path, text.encode("utf-8"), fsync=fsync)
+
+
+def atomic_write_json(path: str | os.PathLike, obj, *, fsync: bool = False) -> Path:
+    """Write ``obj`` as indented JSON with sorted keys to ``path`` atomically."""
+    return atomic_write_text(path, json.dumps(obj, indent=2, sort_keys=True) + "\n", fsync=fsync)

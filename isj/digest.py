@@ -1,0 +1,200 @@
+"""Digests of isj's own code, for cache keys: a cached result is reused only by the code that made it.
+
+:func:`code_digest` hashes the source of some isj modules and of every isj module
+they import, directly or through others, at module level or inside functions
+(a lazy import inside a function is as much a dependency as one at the top).
+Modules are located through the import system (:func:`importlib.util.find_spec`)
+and their source is read through their loader (``get_source``), never by file
+path, so the digest is the same in a source checkout, an editable install, a
+wheel or a zip. Module names and sources are hashed, not locations: two copies
+of the same code give the same digest.
+
+Imports under ``if TYPE_CHECKING:`` are left out: they never run. Modules
+outside isj (numpy, gmsh, ...) are left out too; keys that depend on a
+third-party version (gmsh's meshes) add that version themselves.
+
+Digests are computed once per process and then reused: they describe the code
+as this process first read it, which is the code it runs.
+"""
+
+from __future__ import annotations
+
+import ast
+import functools
+import hashlib
+import importlib.util
+import inspect
+import marshal
+import textwrap
+from collections.abc import Callable, Iterable, Mapping
+
+#: Top-level package whose modules count as "own code".
+PROJECT = __name__.partition(".")[0]
+
+
+def _own(name: str) -> bool:
+    return name == PROJECT or name.startswith(PROJECT + ".")
+
+
+@functools.cache
+def _spec(name: str):
+    spec = importlib.util.find_spec(name)
+    if spec is None or spec.loader is None:
+        raise ModuleNotFoundError(f"no module named {name!r}", name=name)
+    return spec
+
+
+def _is_package(name: str) -> bool:
+    return _spec(name).submodule_search_locations is not None
+
+
+@functools.cache
+def module_source(name: str) -> str:
+    """Source text of the module ``name``, read through its loader.
+
+    A module shipped without source (only bytecode) is represented by its
+    marshalled code object instead, which still changes whenever the code does.
+    """
+    spec = _spec(name)
+    source = spec.loader.get_source(name) if hasattr(spec.loader, "get_source") else None
+    if source is None:
+        return marshal.dumps(spec.loader.get_code(name)).hex()
+    return source
+
+
+def _type_checking_block(node: ast.AST) -> bool:
+    test = getattr(node, "test", None)
+    return isinstance(node, ast.If) and (
+        (isinstance(test, ast.Name) and test.id == "TYPE_CHECKING")
+        or (isinstance(test, ast.Attribute) and test.attr == "TYPE_CHECKING")
+    )
+
+
+def _import_nodes(tree: ast.AST):
+    """Import statements anywhere in ``tree`` except under ``if TYPE_CHECKING:``."""
+    todo = [tree]
+    while todo:
+        node = todo.pop()
+        if isinstance(node, ast.Import | ast.ImportFrom):
+            yield node
+        for child in ast.iter_child_nodes(node):
+            if not _type_checking_block(child):
+                todo.append(child)
+
+
+def imports_in(tree: ast.AST, package: str) -> frozenset[str]:
+    """isj modules that the import statements in ``tree`` load.
+
+    Parameters
+    ----------
+    tree : a parsed module or function
+    package : the package relative imports are resolved against (``"isj.fem"`` for
+        a module of ``isj.fem``)
+
+    Returns
+    -------
+    frozenset of str
+        ``from isj.design import Geometry`` gives ``isj.design``; ``from isj import fem``
+        gives ``isj.fem`` (a submodule), ``from isj import __version__`` gives ``isj``.
+    """
+    found: set[str] = set()
+    for node in _import_nodes(tree):
+        if isinstance(node, ast.Import):
+            found.update(a.name for a in node.names if _own(a.name))
+            continue
+        base = importlib.util.resolve_name("." * node.level + (node.module or ""), package)
+        if not _own(base):
+            continue
+        for alias in node.names:
+            sub = f"{base}.{alias.name}"
+            # `from pkg import name`: a submodule if pkg has one by that name, else an attribute of pkg
+            found.add(sub if _is_package(base) and importlib.util.find_spec(sub) is not None else base)
+    return frozenset(found)
+
+
+@functools.cache
+def module_imports(name: str, top_level_only: bool = False) -> frozenset[str]:
+    """isj modules that the module ``name`` imports (anywhere in it, or only at its top level)."""
+    tree = ast.parse(module_source(name))
+    if top_level_only:
+        top = [n for n in tree.body if isinstance(n, ast.Import | ast.ImportFrom)]
+        tree = ast.Module(body=top, type_ignores=[])
+    package = name if _is_package(name) else name.rpartition(".")[0]
+    return imports_in(tree, package)
+
+
+def closure(modules: Iterable[str]) -> tuple[str, ...]:
+    """The isj modules among ``modules`` and every isj module they import, transitively; sorted."""
+    seen: set[str] = set()
+    todo = [m for m in modules if _own(m)]
+    while todo:
+        name = todo.pop()
+        if name not in seen:
+            seen.add(name)
+            todo.extend(module_imports(name) - seen)
+    return tuple(sorted(seen))
+
+
+@functools.cache
+def _digest(modules: tuple[str, ...]) -> str:
+    h = hashlib.sha256()
+    for name in modules:
+        h.update(name.encode() + b"\0" + module_source(name).encode() + b"\0")
+    return h.hexdigest()
+
+
+def code_digest(*modules: str) -> str:
+    """sha256 (hex) of the sources of ``modules`` and of every isj module they import, transitively.
+
+    Examples
+    --------
+    >>> len(code_digest("isj.design"))
+    64
+    """
+    return _digest(closure(modules))
+
+
+def source_digest(*modules: str) -> str:
+    """sha256 (hex) of the sources of exactly ``modules`` (none of their imports)."""
+    return _digest(tuple(sorted(set(modules))))
+
+
+def function_imports(
+    *functions: Callable, follow: Mapping[str, Callable | str] | None = None
+) -> frozenset[str]:
+    """isj modules that ``functions`` import inside their bodies, following the names in ``follow``.
+
+    A function that mentions a key of ``follow`` (as a name, ``helper(...)``, or as an
+    attribute, ``ctx.helper``) brings in what that value reaches too: a function's own
+    imports (and, in turn, the names it mentions), or a module name as given.
+
+    Parameters
+    ----------
+    functions : functions or properties whose source can be read (``inspect.getsource``)
+    follow : name → function, property or module name
+
+    Returns
+    -------
+    frozenset of str
+        Module names; pass them to :func:`code_digest` for their closure.
+    """
+    follow = dict(follow or {})
+    found: set[str] = set()
+    seen: set[int] = set()
+    todo: list = list(functions)
+    while todo:
+        fn = todo.pop()
+        if isinstance(fn, str):
+            found.add(fn)
+            continue
+        fn = fn.fget if isinstance(fn, property) else fn
+        if id(fn) in seen:
+            continue
+        seen.add(id(fn))
+        tree = ast.parse(textwrap.dedent(inspect.getsource(fn)))
+        found |= imports_in(tree, fn.__module__.rpartition(".")[0])
+        for node in ast.walk(tree):
+            word = node.id if isinstance(node, ast.Name) else getattr(node, "attr", None)
+            if isinstance(word, str) and word in follow:
+                todo.append(follow[word])
+    return frozenset(found)
