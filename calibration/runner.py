@@ -6,7 +6,10 @@ must not import; the caller passes it in). Each result is stored as soon as it
 arrives, one JSON file per design, so an interrupted run resumes where it
 stopped. Records have the form::
 
-    {"key": sha256 hex, "design": {...}, "settings": {...}, "result": {...}}
+    {"key": sha256 hex, "design": {...}, "settings": {...}, "result": {...}, "sha256": hex}
+
+where ``sha256`` is the checksum of the rest (:mod:`isj.cachefile`), verified on
+every read.
 
 Workers are started with the ``spawn`` method: a forked child of a process
 that has already run MKL/OpenMP code (PARDISO) or holds threads (Dask, tqdm)
@@ -21,14 +24,13 @@ import json
 import math
 import multiprocessing
 import os
-import tempfile
-import warnings
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from pathlib import Path
 
 from tqdm.auto import tqdm
 
+from isj.cachefile import DamagedEntry, discard, read_json_entry, write_json_entry
 from isj.errors import CorruptCacheEntry, EvaluationError  # noqa: F401 - re-exported, their old home
 
 RECORD_FIELDS = ("key", "design", "settings", "result")
@@ -83,16 +85,12 @@ def design_key(design: Mapping, settings: Mapping) -> str:
     return hashlib.sha256(_dumps(payload).encode()).hexdigest()
 
 
-def _reject_constant(name: str):
-    raise ValueError(f"non-finite number {name}")
-
-
 class ResultCache:
     """Directory of records, one ``<key>.json`` per design, written atomically.
 
-    A record that cannot be parsed, misses fields, holds non-finite numbers or
-    does not match its key is reported with :class:`CorruptCacheEntry`, deleted
-    and treated as missing: never used.
+    A record that cannot be read or parsed, holds non-finite numbers, fails its
+    checksum, misses fields or does not match its key is reported with one
+    :class:`CorruptCacheEntry` warning line, deleted and treated as missing: never used.
     """
 
     def __init__(self, directory: str | os.PathLike):
@@ -103,56 +101,41 @@ class ResultCache:
         return self.directory / f"{key}.json"
 
     def get(self, key: str) -> dict | None:
-        """The record stored under ``key``, or None if absent or corrupt."""
+        """The record stored under ``key``, or None if absent or damaged."""
         path = self.path(key)
         try:
-            text = path.read_text(encoding="utf-8")
-        except FileNotFoundError:
-            return None
-        try:
-            record = json.loads(text, parse_constant=_reject_constant)
-            self._check(key, record)
-        except (ValueError, TypeError, KeyError) as exc:  # JSONDecodeError is a ValueError
-            msg = f"corrupt cache entry {path} ({exc}); deleted, will recompute"
-            warnings.warn(msg, CorruptCacheEntry, stacklevel=2)
-            path.unlink(missing_ok=True)
+            record = read_json_entry(path, finite=True)
+            if record is not None:
+                self._check(key, record)
+        except DamagedEntry as exc:
+            discard(path, "FE result", str(exc), stacklevel=2)
             return None
         return record
 
     @staticmethod
-    def _check(key: str, record) -> None:
-        if not isinstance(record, dict) or set(record) != set(RECORD_FIELDS):
-            fields = sorted(record) if isinstance(record, dict) else type(record).__name__
-            raise ValueError(f"fields {fields}, expected {sorted(RECORD_FIELDS)}")
+    def _check(key: str, record: dict) -> None:
+        """DamagedEntry unless ``record`` is a whole record that belongs under ``key``."""
+        if set(record) != set(RECORD_FIELDS):
+            raise DamagedEntry(f"fields {sorted(record)}, expected {sorted(RECORD_FIELDS)}")
         if record["key"] != key:
-            raise ValueError(f"stored key {record['key']!r} differs from the file name")
+            raise DamagedEntry(f"stored key {record['key']!r} differs from the file name")
         if not isinstance(record["result"], dict):
-            raise ValueError("result is not an object")
-        _canonical(record["result"], "result")  # raises on huge literals read as inf
-        if design_key(record["design"], record["settings"]) != key:
-            raise ValueError("design and settings do not hash to the key")
+            raise DamagedEntry("result is not an object")
+        try:
+            if design_key(record["design"], record["settings"]) != key:
+                raise DamagedEntry("design and settings do not hash to the key")
+        except (TypeError, ValueError, AttributeError) as exc:  # not a design or settings at all
+            raise DamagedEntry(f"design or settings unusable ({exc})") from exc
 
     def put(self, key: str, design: Mapping, settings: Mapping, result: Mapping) -> dict:
-        """Store a record atomically and return it as it reads back (plain JSON types)."""
+        """Store a record atomically, with its checksum; return it as it reads back (plain JSON types)."""
         record = {
             "key": key,
             "design": _canonical_design(design),
             "settings": _canonical(settings, "settings"),
             "result": _canonical(result, "result"),
         }
-        text = _dumps(record)
-        # temp file in the same directory, then os.replace: readers never see half a record
-        fd, tmp = tempfile.mkstemp(prefix=f".{key}.", suffix=".tmp", dir=self.directory)
-        try:
-            with os.fdopen(fd, "w", encoding="utf-8") as f:
-                f.write(text)
-                f.flush()
-                os.fsync(f.fileno())
-            os.replace(tmp, self.path(key))
-        except BaseException:
-            Path(tmp).unlink(missing_ok=True)
-            raise
-        return json.loads(text)
+        return write_json_entry(self.path(key), record)
 
 
 def _client_for(scheduler):

@@ -10,12 +10,11 @@ solves for the next design.
 from __future__ import annotations
 
 import dataclasses
-import hashlib
 import threading
 from collections.abc import Mapping
-from pathlib import Path
 
 from isj.design import DEFAULT_PRESSURE_PA, REGIONS, Geometry, InvalidParameter, Materials, check_pressure
+from isj.digest import code_digest
 
 from .model import PedicleJointModel
 
@@ -34,24 +33,19 @@ _MAX_MODELS = 4
 _LOCK = threading.RLock()
 
 
-def _code_digest() -> str:
-    here = Path(__file__).resolve().parent
-    h = hashlib.sha256()
-    for path in [*sorted(here.glob("*.py")), here.parent / "isj" / "design.py"]:
-        h.update(path.name.encode() + b"\0" + path.read_bytes())
-    return h.hexdigest()
-
-
 # read once, at import: the digest must describe the code this process runs, not
 # files edited on disk since
-_FEM_CODE = _code_digest()
+_FEM_CODE = code_digest(__name__)
 
 
 def fem_code_digest() -> str:
-    """sha256 (hex) of the sources of ``fem`` and ``isj.design`` as imported by this process.
+    """sha256 (hex) of the sources of this module and of every isj module it imports, transitively.
 
-    Part of :func:`fe_settings`, hence of every cached result's key: editing
-    the FE code makes old results unreachable instead of silently stale.
+    The modules are found through the import system (:func:`isj.digest.code_digest`),
+    lazy imports inside functions included: the model, assembly, solvers, dynamics,
+    mesh and the :mod:`isj.design` vocabulary. Part of :func:`fe_settings`, hence of
+    every cached result's key: editing the FE code makes old results unreachable
+    instead of silently stale.
     """
     return _FEM_CODE
 

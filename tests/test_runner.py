@@ -7,6 +7,7 @@ import uuid
 from pathlib import Path
 
 import pytest
+from isj.cachefile import json_checksum
 from isj.calibration.runner import (
     CorruptCacheEntry,
     EvaluationError,
@@ -103,7 +104,8 @@ def test_cache_hit_returns_identical_records(tmp_path, settings):
     assert again == first
     rec = first[1]
     assert set(rec) == {"key", "design", "settings", "result"} and rec["settings"] == settings
-    assert json.loads((tmp_path / "cache" / f"{rec['key']}.json").read_text()) == rec
+    stored = json.loads((tmp_path / "cache" / f"{rec['key']}.json").read_text())
+    assert stored.pop("sha256") == json_checksum(rec) and stored == rec  # the record plus its checksum
 
 
 def test_corrupt_entries_warn_and_recompute(tmp_path, settings):
@@ -137,8 +139,9 @@ def test_mismatched_record_is_never_used(tmp_path, mutate):
     rec = cache.put(key, d, s, {"alpha_rad": 1e-6})
     assert cache.get(key) == rec
     mutate(rec)
-    cache.path(key).write_text(json.dumps(rec))
-    with pytest.warns(CorruptCacheEntry):
+    # with a checksum that matches: the record's own checks must catch it
+    cache.path(key).write_text(json.dumps(rec | {"sha256": json_checksum(rec)}))
+    with pytest.warns(CorruptCacheEntry, match="FE result cache entry"):
         assert cache.get(key) is None
     assert not cache.path(key).exists()
 
