@@ -214,6 +214,23 @@ class PedicleJointModel(ElasticModel):
             displacement_m=disp,
         )
 
+    def frequency_response(
+        self,
+        freq_hz,
+        materials: Materials | None = None,
+        damping=None,
+        pressure_pa: float = DEFAULT_PRESSURE_PA,
+    ):
+        """Damped harmonic α, β (rad) and the loaded face's mean u_x (m) at ``freq_hz`` (Hz).
+
+        :func:`fem.dynamics.harmonic_response`: an :class:`isj.responses.FrequencyResponse` at
+        the pressure amplitude ``pressure_pa`` (Pa), damping a :class:`fem.dynamics.Damping`
+        (default Rayleigh b = 1e-4 s), outputs those of the lumped chain.
+        """
+        from .dynamics import harmonic_response
+
+        return harmonic_response(self, freq_hz, materials, damping, pressure_pa)
+
     def strain_energy_density(self, result: StaticResult) -> np.ndarray:
         """Mean strain-energy density per element (J/m³)."""
         m = result.materials

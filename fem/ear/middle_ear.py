@@ -404,6 +404,22 @@ class MiddleEarModel:
 
         return harmonic(self, freq_hz, materials, ear_materials, damping, masses, pressure_pa)
 
+    def frequency_response(
+        self,
+        freq_hz,
+        materials: Materials | None = None,
+        ear_materials: EarMaterials | None = None,
+        damping=None,
+        masses=None,
+        pressure_pa: float = 1.0,
+    ):
+        """:meth:`harmonic` as an :class:`isj.responses.FrequencyResponse`: umbo, stapes (m), α, β (rad).
+
+        At the ear-canal pressure amplitude ``pressure_pa`` (Pa; 1: per Pa); the outputs of
+        :meth:`isj.lumped.ear.LumpedEar.response`, name by name.
+        """
+        return self.harmonic(freq_hz, materials, ear_materials, damping, masses, pressure_pa).response()
+
     def natural_frequencies(
         self,
         n: int = 6,
