@@ -67,7 +67,7 @@ def run_report(
     store = StepStore(cache_dir or default_cache_dir())
     results, arrays, timings, cached = {}, {}, {}, []
     for i, (name, fn, sections) in enumerate(STEPS, 1):
-        key = step_key(name, step_inputs(ctx, sections))
+        key = step_key(name, step_inputs(ctx, sections, fn))
         t0 = time.perf_counter()
         hit = store.get(name, key)
         if hit is None:

@@ -417,27 +417,42 @@ STEPS = (
 )
 
 
-def step_inputs(ctx: Context, sections: tuple[str, ...]) -> dict:
-    """What a step's result depends on: its config sections, the FE code, the step code, the calibration."""
-    from isj.fem.batch import fem_code_digest
+def step_inputs(ctx: Context, sections: tuple[str, ...], step=None) -> dict:
+    """What a step's result depends on: its config sections, the code it runs, the calibration.
 
+    ``step`` is the step's function (None: every step's, a safe superset); see
+    :func:`step_code_digest`.
+    """
     d = ctx.config.to_dict()
     cal = dataclasses.asdict(ctx.calibration)
     cal.pop("provenance", None)  # the date of a calibration does not change its numbers
     return {
         "config": {s: d[s] for s in sections},
-        "fem_code": fem_code_digest(),
-        "step_code": _step_code_digest(),
+        "code": step_code_digest(ctx, step),
         "calibration": cal,
     }
 
 
-def _step_code_digest() -> str:
-    """Digest of this module and the whole-ear modules: a changed step must not reuse old results."""
-    import hashlib
+def step_code_digest(ctx: Context, step=None) -> str:
+    """sha256 (hex) of the code a step runs, found through the import system (:mod:`isj.digest`).
 
-    root = Path(__file__).resolve().parent.parent
-    h = hashlib.sha256()
-    for f in [Path(__file__), *sorted((root / "fem" / "ear").glob("*.py")), root / "isj" / "ear.py"]:
-        h.update(f.read_bytes())
-    return h.hexdigest()[:16]
+    This module's source, and every isj module, with all that it imports in turn,
+    that is imported at this module's top level, inside the step function, or inside
+    the helpers here and the :class:`Context` members the step uses (``ctx.lumped``
+    brings in :mod:`isj.lumped.model`), plus the modules of the objects in the
+    context that it reads (``ctx.calibration``: :mod:`isj.lumped.artifact`). An edit
+    of the lumped model thus recomputes the steps that use it, and only those.
+    """
+    import hashlib
+    import inspect
+
+    from isj import digest
+
+    here = {n: f for n, f in globals().items() if inspect.isfunction(f) and f.__module__ == __name__}
+    members = {n: m for n, m in vars(Context).items() if inspect.isfunction(m) or isinstance(m, property)}
+    held = {f.name: type(getattr(ctx, f.name)).__module__ for f in dataclasses.fields(ctx)}
+    steps = [fn for _, fn, _ in STEPS] if step is None else [step]
+    used = digest.function_imports(*steps, follow=here | members | held)
+    used |= digest.module_imports(__name__, top_level_only=True)
+    text = digest.source_digest(__name__) + digest.code_digest(*used)
+    return hashlib.sha256(text.encode()).hexdigest()

@@ -1,10 +1,16 @@
 """Results of report steps, cached on disk by a hash of everything they depend on.
 
-A step's key covers its name, the part of the configuration it reads, the FE
-code digest and the calibration it uses. A finished step is stored atomically
+A step's key covers its name, the part of the configuration it reads, the
+digest of the code it runs (:func:`isj.reports.steps.step_inputs`) and the
+calibration it uses. A finished step is stored atomically
 (``<dir>/<step>-<key>.json``, plus an ``.npz`` for arrays); an interrupted
 report therefore resumes at the first unfinished step, and a second report on
 the same inputs, into any folder, recomputes nothing.
+
+Both files carry checksums (:mod:`isj.cachefile`): the JSON record its own and
+that of the arrays. A damaged entry (truncated, random bytes, a number edited)
+is reported with one :class:`~isj.errors.CorruptCacheEntry` warning line,
+deleted and recomputed.
 """
 
 from __future__ import annotations
@@ -12,14 +18,19 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import warnings
 from pathlib import Path
 
 import numpy as np
 
-from isj.atomic import atomic_write, atomic_write_json
+from isj.cachefile import (
+    DamagedEntry,
+    discard,
+    read_json_entry,
+    read_npz_entry,
+    write_json_entry,
+    write_npz_entry,
+)
 from isj.caches import report_cache_dir
-from isj.errors import CorruptCacheEntry
 
 #: ``$ISJ_FE_CACHE_DIR/report``, or ``~/.cache/isj/fe/report`` (one definition, in :mod:`isj.caches`).
 default_cache_dir = report_cache_dir
@@ -42,32 +53,30 @@ class StepStore:
         return stem.with_suffix(".json"), stem.with_suffix(".npz")
 
     def get(self, name: str, key: str) -> tuple[dict, dict[str, np.ndarray]] | None:
-        """(result, arrays) of a finished step, or None; a damaged entry is reported and ignored."""
+        """(result, arrays) of a finished step, or None; a damaged entry is reported, deleted, ignored."""
         jpath, npath = self._paths(name, key)
-        if not jpath.exists():
-            return None
         try:
-            record = json.loads(jpath.read_text())
-            if record.get("key") != key:
-                raise ValueError("key mismatch")
+            record = read_json_entry(jpath)
+            if record is None:
+                return None
+            if record.get("key") != key or record.get("step") != name:
+                raise DamagedEntry("step or key differs from the file name")
+            if not isinstance(record.get("result"), dict):
+                raise DamagedEntry("no result")
             arrays = {}
-            if record.get("has_arrays"):
-                with np.load(npath, allow_pickle=False) as z:
-                    arrays = {k: z[k] for k in z.files}
+            if record.get("arrays_sha256") is not None:
+                arrays, digest = read_npz_entry(npath)
+                if digest != record["arrays_sha256"]:
+                    raise DamagedEntry(f"{npath.name} holds other arrays than the record was written with")
             return record["result"], arrays
-        except (OSError, ValueError, KeyError) as exc:
-            warnings.warn(
-                f"report cache entry {jpath} is damaged ({exc}); recomputing", CorruptCacheEntry, stacklevel=2
-            )
+        except DamagedEntry as exc:
+            discard([jpath, npath], "report step", str(exc), stacklevel=2)
             return None
 
     def put(self, name: str, key: str, result: dict, arrays: dict[str, np.ndarray] | None = None) -> None:
+        """Store a finished step: its arrays first, then the record that names their checksum."""
         jpath, npath = self._paths(name, key)
-        if arrays:  # arrays first: a JSON record only ever points at a complete .npz
-
-            def write(tmp):
-                with open(tmp, "wb") as f:
-                    np.savez_compressed(f, **arrays)
-
-            atomic_write(npath, write)
-        atomic_write_json(jpath, {"key": key, "step": name, "has_arrays": bool(arrays), "result": result})
+        # arrays first: a JSON record only ever points at a complete .npz
+        digest = write_npz_entry(npath, arrays, compressed=True) if arrays else None
+        record = {"key": key, "step": name, "arrays_sha256": digest, "result": result}
+        write_json_entry(jpath, record, indent=2)
