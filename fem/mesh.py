@@ -9,7 +9,10 @@ meshing by duplicating its nodes. Results are cached on disk (:mod:`fem.cache`).
 
 from __future__ import annotations
 
+import ctypes
 import hashlib
+import os
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from os import PathLike
 
@@ -142,6 +145,37 @@ def import_gmsh():
     return gmsh
 
 
+#: Names under which gmsh's OpenMP runtime is loaded (Linux, macOS).
+_OPENMP_LIBS = ("libgomp.so.1", "libgomp.1.dylib", "libomp.dylib")
+
+
+@contextmanager
+def _openmp_threads_kept():
+    """Restore the calling thread's OpenMP thread count after a gmsh session.
+
+    gmsh applies ``General.NumThreads`` (one, for determinism) with
+    ``omp_set_num_threads`` and leaves it so. MKL's PARDISO shares that runtime
+    when gmsh was loaded first; a factorization analysed with two threads then
+    crashed (SIGSEGV) when factored again with one, and results depended on
+    whether a mesh came from the cache. :mod:`fem.solvers` pins PARDISO's own
+    count; this puts the process's count back for everything else. Only a
+    runtime that is already loaded is touched (RTLD_NOLOAD).
+    """
+    lib = None
+    for name in _OPENMP_LIBS:
+        try:
+            lib = ctypes.CDLL(name, mode=os.RTLD_NOLOAD | os.RTLD_LAZY)
+            break
+        except (OSError, AttributeError):  # not loaded, or no RTLD_NOLOAD (Windows)
+            continue
+    before = int(lib.omp_get_max_threads()) if lib is not None else None
+    try:
+        yield
+    finally:
+        if before is not None:
+            lib.omp_set_num_threads(ctypes.c_int(before))
+
+
 def _gmsh_mesh(kind, builder, geometry, sizes, region_names, face_names):
     """Build and mesh with gmsh; return (node tags, coordinates µm, tets per region, faces)."""
     gmsh = import_gmsh()
@@ -149,6 +183,11 @@ def _gmsh_mesh(kind, builder, geometry, sizes, region_names, face_names):
     if gmsh.isInitialized():
         # Our options are global: running inside someone else's session would change theirs.
         raise MeshError("gmsh is already initialised in this process; finalize it first")
+    with _openmp_threads_kept():
+        return _gmsh_session(gmsh, kind, builder, geometry, sizes, region_names, face_names)
+
+
+def _gmsh_session(gmsh, kind, builder, geometry, sizes, region_names, face_names):
     # interruptible=False: gmsh's SIGINT handler can only be installed from the main thread.
     gmsh.initialize(readConfigFiles=False, interruptible=False)
     try:

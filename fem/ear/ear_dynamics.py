@@ -406,7 +406,7 @@ def natural_frequencies(
     masses: EarMasses | None = None,
 ) -> EarModes:
     """The ``n`` lowest natural frequencies of K_r q = ω² M_r q (shift-invert Lanczos about 0)."""
-    from isj.fem.solvers import make_solver
+    from isj.fem.solvers import lanczos_start, make_solver
 
     if isinstance(n, bool) or not isinstance(n, int | np.integer) or not 1 <= n < model.n_dofs - 1:
         raise InvalidParameter(f"n = {n!r}: must be an integer in [1, {model.n_dofs - 2}]")
@@ -416,7 +416,8 @@ def natural_frequencies(
     try:
         solver.factor(K)
         opinv = spla.LinearOperator(K.shape, matvec=lambda x: np.ravel(solver.solve(x)), dtype=float)
-        w2, vec = spla.eigsh(K, k=int(n), M=M, sigma=0.0, which="LM", OPinv=opinv, tol=1e-10)
+        v0 = lanczos_start(K.shape[0])  # fixed: the same modes, bit for bit, on every run
+        w2, vec = spla.eigsh(K, k=int(n), M=M, sigma=0.0, which="LM", OPinv=opinv, tol=1e-10, v0=v0)
     finally:
         if hasattr(solver, "free"):
             solver.free()
