@@ -67,6 +67,7 @@ import numpy as np
 
 from isj.design import Geometry, InvalidParameter
 from isj.ear import EarGeometry, EarMasses, EarMaterials
+from isj.kinematics import grounded_springs, point_map, rigid_mass
 from isj.validate import check_frequencies
 
 from .dynamics import SecondOrderModel, joint_coupling
@@ -180,30 +181,6 @@ DEFAULT_EARDRUM = EardrumParameters(
 
 #: The ossicles' masses: :class:`isj.ear.EarMasses` (one place for the FE and the lumped ear).
 OssicleMasses = EarMasses
-
-
-def _skew(r) -> np.ndarray:
-    x, y, z = r
-    return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
-
-
-def _point_map(point, reference) -> np.ndarray:
-    """(3, 6) map from a rigid body's (u, θ) at ``reference`` to a point's displacement."""
-    return np.hstack([np.eye(3), -_skew(np.asarray(point, float) - np.asarray(reference, float))])
-
-
-def _springs(reference, points, k3) -> np.ndarray:
-    """6 × 6 stiffness about ``reference`` of grounded point springs (k3: (P, 3, 3), N/m)."""
-    return sum(
-        _point_map(p, reference).T @ k @ _point_map(p, reference) for p, k in zip(points, k3, strict=True)
-    )
-
-
-def _rigid_mass(mass, gyration, centroid, reference) -> np.ndarray:
-    G = _point_map(centroid, reference)
-    rot = np.zeros((3, 6))
-    rot[:, 3:] = np.eye(3)
-    return mass * G.T @ G + mass * gyration**2 * rot.T @ rot
 
 
 def nominal_axis(g: EarGeometry) -> tuple[np.ndarray, np.ndarray]:
@@ -350,7 +327,7 @@ def ear_model(
         coupling = joint_coupling(factors, jg, **moduli)
     nd = coupling.stiffness.shape[0] if joint else 1
     stapes_map = np.zeros((nd, 6, n))
-    stapes_map[:, :3] = _point_map(F, x_b) @ body_map
+    stapes_map[:, :3] = point_map(F, x_b)[0] @ body_map
     stapes_map[:, 3:] = body_map[3:]
     if joint:  # the stapes moves by −d relative to the incus, d = motion @ (α, β) (per design)
         jx = np.asarray(g.joint_x_direction, dtype=float)
@@ -370,7 +347,7 @@ def ear_model(
             mat.incudal_medial_n_m * np.eye(3),
         ]
     )
-    K_body = _springs(x_b, pts, k3) + np.asarray(drum.stiffness)
+    K_body = grounded_springs(x_b, pts, k3) + np.asarray(drum.stiffness)
     nrm = np.asarray(g.piston_direction)
     long_m, short_m = g.footplate_semi_axes_m
     e_long = np.asarray(g.footplate_long_axis)
@@ -380,7 +357,7 @@ def ear_model(
     k_ann = mat.annular_out_of_plane_n_m * np.outer(nrm, nrm) + mat.annular_in_plane_n_m * (
         np.eye(3) - np.outer(nrm, nrm)
     )
-    K_stapes = _springs(F, outline, np.broadcast_to(k_ann, (len(outline), 3, 3)))
+    K_stapes = grounded_springs(F, outline, np.broadcast_to(k_ann, (len(outline), 3, 3)))
     area_ring = np.pi * g.drum_semi_axis_manubrium_m * g.drum_semi_axis_transverse_m
     K = body_map.T @ K_body @ body_map + stapes_t @ K_stapes @ stapes_map  # (nd, n, n)
     K[:, iw, iw] += area_ring**2 / drum.compliance_m3_per_pa
@@ -389,12 +366,12 @@ def ear_model(
 
     # ---- mass
     centroid = np.asarray(ms.malleus_incus_centroid(g), dtype=float)
-    M_body = np.asarray(drum.mass) + _rigid_mass(
+    M_body = np.asarray(drum.mass) + rigid_mass(
         ms.malleus_incus_kg, ms.malleus_incus_gyration_m, centroid, x_b
     )
     c_s = np.asarray(ms.stapes_centroid(g), dtype=float)
     M = body_map.T @ M_body @ body_map
-    M = M + stapes_t @ _rigid_mass(ms.stapes_kg, ms.stapes_gyration_m, c_s, F) @ stapes_map  # (nd, n, n)
+    M = M + stapes_t @ rigid_mass(ms.stapes_kg, ms.stapes_gyration_m, c_s, F) @ stapes_map  # (nd, n, n)
     cross = body_map.T @ np.asarray(drum.cross_mass) * area_ring
     M[:, :, iw] += cross
     M[:, iw, :] += cross
@@ -404,7 +381,7 @@ def ear_model(
     Bq = np.zeros((n, 1))
     Bq[:, 0] = body_map.T @ np.asarray(drum.load_per_pa)
     Bq[iw, 0] += area_ring
-    umbo_map = _point_map(g.umbo_m, x_b) @ body_map  # (3, n)
+    umbo_map = point_map(g.umbo_m, x_b)[0] @ body_map  # (3, n)
     q_static = np.linalg.solve(K, np.broadcast_to(Bq, (nd, n, 1)))[..., 0]
     u_umbo = q_static @ umbo_map.T  # (nd, 3)
     d_umbo = u_umbo / np.linalg.norm(u_umbo, axis=1, keepdims=True)

@@ -55,6 +55,7 @@ class StepStore:
     def get(self, name: str, key: str) -> tuple[dict, dict[str, np.ndarray]] | None:
         """(result, arrays) of a finished step, or None; a damaged entry is reported, deleted, ignored."""
         jpath, npath = self._paths(name, key)
+        files = [jpath, npath]  # the first is the one the warning names
         try:
             record = read_json_entry(jpath)
             if record is None:
@@ -65,12 +66,13 @@ class StepStore:
                 raise DamagedEntry("no result")
             arrays = {}
             if record.get("arrays_sha256") is not None:
+                files.reverse()
                 arrays, digest = read_npz_entry(npath)
                 if digest != record["arrays_sha256"]:
                     raise DamagedEntry(f"{npath.name} holds other arrays than the record was written with")
             return record["result"], arrays
         except DamagedEntry as exc:
-            discard([jpath, npath], "report step", str(exc), stacklevel=2)
+            discard(files, "report step", str(exc), stacklevel=2)
             return None
 
     def put(self, name: str, key: str, result: dict, arrays: dict[str, np.ndarray] | None = None) -> None:

@@ -45,11 +45,11 @@ import scipy.sparse.linalg as spla
 
 from isj.design import InvalidParameter, Materials
 from isj.ear import EarMasses, EarMaterials
+from isj.kinematics import rigid_mass
 from isj.validate import check_frequencies
 
 from ..dynamics import Damping
 from .constraints import rigid_body_modes
-from .rigid import point_map
 from .shell import ShellMaterial
 from .shell import mass_matrix as shell_mass_matrix
 
@@ -65,18 +65,6 @@ class EarDamping(Damping):
     @property
     def damped(self) -> bool:
         return self.rayleigh_a_per_s > 0 or self.rayleigh_b_s > 0 or self.loss_factor > 0
-
-
-def rigid_mass(mass_kg: float, gyration_m: float, centroid_m, reference_m) -> np.ndarray:
-    """6 × 6 mass (kg, kg·m, kg·m²) of a rigid body at ``reference_m`` for its (u, θ) dofs.
-
-    Mass ``mass_kg`` at ``centroid_m`` (m) with isotropic rotary inertia m r_g² about it:
-    m GᵀG + m r_g² diag(0, I), G = [I, −[c − x₀]×].
-    """
-    G = point_map(centroid_m, reference_m)[0]
-    M = mass_kg * G.T @ G
-    M[3:, 3:] += mass_kg * gyration_m**2 * np.eye(3)
-    return M
 
 
 def footplate_mass_matrix(model, ear_materials: EarMaterials | None = None, masses: EarMasses | None = None):
