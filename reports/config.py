@@ -26,6 +26,7 @@ import math
 import tomllib
 from dataclasses import dataclass, field, fields
 from pathlib import Path
+from typing import ClassVar
 
 from isj.design import DEFAULT_PRESSURE_PA, Geometry, InvalidParameter, Materials
 from isj.ear import EarMaterials
@@ -33,24 +34,29 @@ from isj.errors import ConfigError  # noqa: F401 - re-exported, its old home
 
 
 @dataclass(frozen=True)
-class DesignConfig:
-    """The base design: Young's moduli (Pa), Poisson's ratio, pressure on the incus (Pa)."""
+class DesignConfig(Materials):
+    """The [design] section: the base design's :class:`~isj.design.Materials` and the pressure on the incus.
 
-    pedicle_e_pa: float = Materials().pedicle_e_pa
-    gap_e_pa: float = Materials().gap_e_pa
-    capsule_e_pa: float = Materials().capsule_e_pa
-    plate_e_pa: float = Materials().plate_e_pa
-    stapes_e_pa: float = Materials().stapes_e_pa
-    incus_e_pa: float = Materials().incus_e_pa
-    nu: float = Materials().nu
+    The moduli (Pa) and ν are Materials' own fields, with its defaults and its
+    validation; ``pressure_pa`` (Pa) is the load. The section's keys are
+    :attr:`CONFIG_KEYS`: the densities are not among them and keep Materials' defaults.
+    """
+
     pressure_pa: float = DEFAULT_PRESSURE_PA
 
+    #: The [design] keys, in the order the resolved configuration writes them.
+    CONFIG_KEYS: ClassVar[tuple[str, ...]] = (
+        "pedicle_e_pa", "gap_e_pa", "capsule_e_pa", "plate_e_pa", "stapes_e_pa", "incus_e_pa",
+        "nu", "pressure_pa",
+    )  # fmt: skip
+
     def materials(self) -> Materials:
-        return Materials(**{f.name: getattr(self, f.name) for f in fields(self) if f.name != "pressure_pa"})
+        """The base design without the load, as a plain :class:`~isj.design.Materials`."""
+        return Materials(**{f.name: getattr(self, f.name) for f in fields(Materials)})
 
     def moduli(self) -> dict[str, float]:
         """The Young's moduli as a design dict for the lumped model and the FE runner (Pa)."""
-        return {f.name: getattr(self, f.name) for f in fields(self) if f.name.endswith("_e_pa")}
+        return {k: getattr(self, k) for k in self.CONFIG_KEYS if k.endswith("_e_pa")}
 
 
 @dataclass(frozen=True)
@@ -138,8 +144,13 @@ class ReportConfig:
 _SECTIONS = {f.name: f for f in fields(ReportConfig)}
 
 
+def _section_keys(obj) -> tuple[str, ...]:
+    """A section's configuration keys: its fields, unless it names them (:attr:`DesignConfig.CONFIG_KEYS`)."""
+    return getattr(obj, "CONFIG_KEYS", None) or tuple(f.name for f in fields(obj))
+
+
 def _section_dict(obj) -> dict:
-    return {f.name: getattr(obj, f.name) for f in fields(obj)}
+    return {k: getattr(obj, k) for k in _section_keys(obj)}
 
 
 def _toml_value(v) -> str:
@@ -182,15 +193,16 @@ def _coerce(where: str, value, default):
 def _build_section(name: str, values: dict):
     cls_field = _SECTIONS[name]
     default = cls_field.default_factory()
-    allowed = {f.name: getattr(default, f.name) for f in fields(default)}
+    allowed = _section_dict(default)
     for key in values:
         if key not in allowed:
             raise ConfigError(f"unknown key {name}.{key}; valid keys of [{name}]: {', '.join(allowed)}")
     coerced = {k: _coerce(f"{name}.{k}", v, allowed[k]) for k, v in values.items()}
     try:
         return dataclasses.replace(default, **coerced)
-    except InvalidParameter as exc:  # Geometry validates itself
-        raise ConfigError(f"[{name}] {exc}") from None
+    except InvalidParameter as exc:  # Geometry and the design's Materials validate themselves
+        where = "design." if name == "design" else f"[{name}] "
+        raise ConfigError(f"{where}{exc}") from None
 
 
 def _check(cfg: ReportConfig) -> None:
@@ -200,11 +212,7 @@ def _check(cfg: ReportConfig) -> None:
         if not ok:
             raise ConfigError(f"{where} = {value!r}: {rule}")
 
-    d = cfg.design
-    try:
-        d.materials()
-    except InvalidParameter as exc:
-        raise ConfigError(f"design.{exc}") from None
+    d = cfg.design  # its moduli and ν were checked by Materials on construction
     need(d.pressure_pa > 0, "design.pressure_pa", d.pressure_pa, "must be > 0 (Pa)")
     need(cfg.mesh.order in (1, 2), "mesh.order", cfg.mesh.order, "must be 1 or 2")
     need(0.2 <= cfg.mesh.resolution <= 4, "mesh.resolution", cfg.mesh.resolution, "must be in [0.2, 4]")
