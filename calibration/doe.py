@@ -88,13 +88,23 @@ class DesignSpace:
 
     def from_unit(self, u: np.ndarray) -> list[dict[str, float]]:
         """Designs (Pa) from points of the unit cube, log-uniform map; ``u`` shape (n, d)."""
+        cols = self.columns_from_unit(u)
+        e = np.column_stack([cols[n] for n in self.names])
+        return [dict(zip(self.names, map(float, row), strict=True)) for row in e]
+
+    def columns_from_unit(self, u: np.ndarray) -> dict[str, np.ndarray]:
+        """:meth:`from_unit` as one array (Pa) per modulus, shape (n,) each: for millions of designs."""
         u = np.atleast_2d(np.asarray(u, dtype=float))
         if u.shape[1] != len(self.names):
             raise ValueError(f"u has {u.shape[1]} columns, the space has {len(self.names)} moduli")
         log_lo, log_hi = np.log(self.lower), np.log(self.upper)
-        # clip: exp(log(lo)) may miss lo by an ulp, and designs must lie inside the box
-        e = np.clip(np.exp(log_lo + u * (log_hi - log_lo)), self.lower, self.upper)
-        return [dict(zip(self.names, map(float, row), strict=True)) for row in e]
+        out = {}
+        for j, name in enumerate(self.names):
+            # column by column: a few arrays of n at a time, not of (n, d); clip, since
+            # exp(log(lo)) may miss lo by an ulp and designs must lie inside the box
+            e = np.exp(log_lo[j] + u[:, j] * (log_hi[j] - log_lo[j]))
+            out[name] = np.clip(e, self.lower[j], self.upper[j])
+        return out
 
     def to_unit(self, designs: Mapping | Sequence[Mapping]) -> np.ndarray:
         """Log-scaled coordinates in [0, 1] (0 for a pinned modulus), shape (n, d)."""

@@ -1,1 +1,5 @@
-"""The command line, one module per command group (see isj._cli.main)."""
+"""The command line, one module per command group; :func:`main` wires them up (``isj._cli._main``)."""
+
+from ._main import build_parser, main
+
+__all__ = ["build_parser", "main"]

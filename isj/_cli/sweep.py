@@ -1,0 +1,187 @@
+"""``isj sweep``: the lumped chain's damped frequency response, with FE harmonic spot checks.
+
+The options shared with ``isj ear sweep`` (the band, the damping, the checks
+before anything runs) are here too.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+from isj.errors import UsageError
+
+from . import _common as c
+
+
+def add_band_options(p: argparse.ArgumentParser, fmax_hz: float = 20e3, why: str = "") -> None:
+    """``--fmin-hz``, ``--fmax-hz`` and ``--n`` (log-spaced frequencies)."""
+    p.add_argument(
+        "--fmin-hz", type=c.float_option("--fmin-hz", lo=0.0), default=100.0, help="lowest frequency (Hz)"
+    )
+    p.add_argument(
+        "--fmax-hz",
+        type=c.float_option("--fmax-hz", lo=0.0),
+        default=fmax_hz,
+        help=f"highest frequency (Hz; default {fmax_hz:g}{why})",
+    )
+    p.add_argument("--n", type=int, default=200, help="frequencies, log-spaced, in [2, 100000] (default 200)")
+
+
+def add_damping_options(p: argparse.ArgumentParser) -> None:
+    """Rayleigh a, b and the loss factor, and the lumped model's calibration."""
+    p.add_argument(
+        "--rayleigh-a",
+        metavar="PER_S",
+        type=c.float_option("--rayleigh-a", lo=0.0, lo_open=False),
+        default=0.0,
+        help="Rayleigh mass coefficient a (1/s; default 0)",
+    )
+    p.add_argument(
+        "--rayleigh-b",
+        metavar="S",
+        type=c.float_option("--rayleigh-b", lo=0.0, lo_open=False),
+        default=1e-4,
+        help="Rayleigh stiffness coefficient b (s; default 1e-4)",
+    )
+    p.add_argument(
+        "--loss-factor",
+        type=c.float_option("--loss-factor", lo=0.0, lo_open=False),
+        default=0.0,
+        help="structural loss factor eta (default 0)",
+    )
+    c.add_calibration_option(p)
+
+
+def sweep_setup(args):
+    """Checks shared by ``isj sweep`` and ``isj ear sweep``: (out dir, calibration, materials, fe freq).
+
+    Everything is checked here, before any model is built.
+    """
+    from isj.calibration.sweeps import fe_check_frequencies
+    from isj.validate import check_band
+
+    check_band(args.fmin_hz, args.fmax_hz, ("--fmin-hz", "--fmax-hz"))
+    if not 2 <= args.n <= 100_000:
+        raise UsageError(f"--n = {args.n}: must be an integer in [2, 100000]")
+    if not 0 <= args.fe_checks <= 50:
+        raise UsageError(f"--fe-checks = {args.fe_checks}: must be an integer in [0, 50]")
+    out = c.check_out_dir(args.out)
+    cal = c.load_calibration(args.calibration)
+    fe_freq = fe_check_frequencies(args.fmin_hz, args.fmax_hz, args.fe_checks)
+    return out, cal, c.materials(args), fe_freq
+
+
+def register(sub) -> None:
+    """Add ``isj sweep`` to the top-level subparsers ``sub``."""
+    p = sub.add_parser("sweep", help="damped frequency response: lumped curves, FE spot checks")
+    c.add_design_options(p)
+    c.add_mesh_options(p)
+    add_band_options(p)
+    p.add_argument("--fe-checks", type=int, default=2, help="FE harmonic spot checks K (default 2)")
+    p.add_argument(
+        "--tolerance",
+        type=c.float_option("--tolerance", lo=0.0),
+        default=0.05,
+        help="largest relative error of an FE check (default 0.05)",
+    )
+    add_damping_options(p)
+    p.add_argument("--out", metavar="DIR", default="sweep", help="output folder (default ./sweep)")
+    c.add_json_option(p)
+    p.set_defaults(func=sweep)
+
+
+def sweep(args) -> int:
+    import numpy as np
+
+    from isj.calibration.checks import warn_fe_settings, warn_outside_domain
+    from isj.calibration.sweeps import chain_sweep
+
+    from ..provenance import write_run_record
+
+    out, cal, m, fe_freq = sweep_setup(args)
+    warn_outside_domain(cal, c.moduli(m))
+    geometry = c.geometry(args)
+    sw = chain_sweep(
+        cal,
+        np.geomspace(args.fmin_hz, args.fmax_hz, args.n),
+        m,
+        geometry,
+        rayleigh_a_per_s=args.rayleigh_a,
+        rayleigh_b_s=args.rayleigh_b,
+        loss_factor=args.loss_factor,
+        pressure_pa=args.pressure,
+    )
+    keys = sw.outputs[:2]  # α and β: the incus face's u_x follows from them
+    checks = []
+    if fe_freq.size:
+        from isj.fem.dynamics import Damping, harmonic_outputs
+        from isj.fem.model import PedicleJointModel
+
+        warn_fe_settings(cal, args.order, args.resolution)
+        fem_model = PedicleJointModel(geometry, args.order, args.resolution, solver=args.solver)
+        damping = Damping(args.rayleigh_a, args.rayleigh_b, args.loss_factor)
+
+        def fe_response(f):
+            return harmonic_outputs(fem_model, f, m, damping, args.pressure)
+
+        comp = sw.fe_checks(fe_freq, fe_response, keys)
+        passed = comp.passed(args.tolerance)
+        for i, f in enumerate(comp.freq_hz):
+            fe = comp.fe[i]
+            checks.append(
+                {
+                    "freq_hz": float(f),
+                    **{f"fe_{k}": [float(fe[j].real), float(fe[j].imag)] for j, k in enumerate(keys)},
+                    **{f"{k}_rel_error": e for k, e in comp.errors(i).items()},
+                    "passed": bool(passed[i]),
+                }
+            )
+    _write(args, out, sw, fe_freq, checks)
+    summary = {
+        "n_freq": int(args.n),
+        "natural_freq_hz": [float(v) for v in sw.natural_freq_hz],
+        "damping_ratio": [float(v) for v in sw.damping_ratio],
+        "fe_checks": checks,
+        "passed": all(ck["passed"] for ck in checks),
+        "tolerance": args.tolerance,
+    }
+    write_run_record(out / "sweep.json", args, summary)
+    if args.json:
+        print(json.dumps(summary))
+    else:
+        modes = zip(sw.natural_freq_hz, sw.damping_ratio, strict=True)
+        print(
+            f"lumped sweep {args.fmin_hz:g}-{args.fmax_hz:g} Hz ({args.n} points); natural frequencies "
+            + ", ".join(f"{v:.0f} Hz (zeta {z:.2f})" for v, z in modes)
+        )
+        for ck in checks:
+            print(
+                f"  FE check at {ck['freq_hz']:.0f} Hz: alpha {100 * ck['alpha_rad_rel_error']:.2f} %, "
+                f"beta {100 * ck['beta_rad_rel_error']:.2f} % {'ok' if ck['passed'] else 'EXCEEDS tolerance'}"
+            )
+        print(f"wrote {out}/sweep.csv, sweep.npz, bode.png, sweep.json")
+    if not summary["passed"]:
+        return c.fail(f"an FE check exceeds the tolerance {args.tolerance:g}")
+    return 0
+
+
+def _write(args, out, sw, fe_freq, checks) -> None:
+    """sweep.csv, sweep.npz and bode.png (sweep.json comes last, with the summary)."""
+    import numpy as np
+
+    from isj.lumped.plots import save_bode
+
+    from ._output import write_npz, write_response_csv
+
+    units = f"freq_hz Hz; alpha_rad, beta_rad rad; incus_ux_m m; phase deg; pressure {args.pressure:g} Pa"
+    write_response_csv(out / "sweep.csv", sw.freq_hz, sw.response, sw.outputs, units)
+    write_npz(
+        out / "sweep.npz",
+        freq_hz=sw.freq_hz,
+        response=sw.response,
+        outputs=np.array(sw.outputs),
+        fe_freq_hz=np.asarray(fe_freq),
+        units=np.array("freq_hz: Hz; alpha_rad, beta_rad: rad; incus_ux_m: m"),
+    )
+    save_bode(out / "bode.png", sw.freq_hz, sw.response, checks)
