@@ -16,12 +16,12 @@ from pathlib import Path
 
 import numpy as np
 
+# STATIC_KEYS: the outputs compared between FE and lumped models, in table order
+from isj.calibration.checks import STATIC_KEYS, static_row
+
 from isj.cases import THESIS_BASE_ALPHA_RAD, THESIS_BASE_BETA_RAD, THESIS_CASES
 
 from .config import ReportConfig
-
-#: Outputs compared between FE and lumped models, in table order.
-STATIC_KEYS = ("alpha_rad", "beta_rad", "alpha_plus_beta_rad", "beta_over_alpha")
 
 
 @dataclass
@@ -43,33 +43,24 @@ class Context:
     def base_design(self) -> dict[str, float]:
         return self.config.design.moduli() | {"nu": self.config.design.nu}
 
-    def run_static(self, designs: list[dict]) -> list[dict]:
-        """FE results of ``designs`` (cached; evaluated in this process so the model is built once)."""
-        from isj.calibration.runner import run_designs
-        from isj.fem.batch import evaluate_design
-
-        recs = run_designs(
-            designs, evaluate_design, self.settings, self.fe_cache_dir, max_workers=0, progress=self.progress
-        )
-        return [r["result"] for r in recs]
-
     def lumped(self, designs: list[dict]):
         """Lumped static response (arrays over ``designs``)."""
-        from isj.lumped.model import static_response
+        from isj.calibration.checks import lumped_static
 
-        moduli = {k: np.array([d[k] for d in designs]) for k in designs[0] if k.endswith("_e_pa")}
-        return static_response(
-            self.calibration.factor_array(), self.config.geometry, self.config.design.pressure_pa, **moduli
-        )
+        return lumped_static(self.calibration, designs, self.config.geometry, self.config.design.pressure_pa)
 
+    def compare(self, designs: list[dict]):
+        """FE and lumped on ``designs``: an ``isj.calibration.checks.StaticComparison``.
 
-def _static_row(alpha: float, beta: float) -> dict[str, float]:
-    return {
-        "alpha_rad": float(alpha),
-        "beta_rad": float(beta),
-        "alpha_plus_beta_rad": float(alpha + beta),
-        "beta_over_alpha": float(beta / alpha),
-    }
+        FE results are cached and evaluated in this process, so the model is built once.
+        """
+        from isj.calibration.checks import compare_static
+        from isj.fem.batch import evaluate_design
+
+        return compare_static(
+            self.calibration, designs, evaluate_design, self.settings, self.fe_cache_dir,
+            max_workers=0, progress=self.progress,
+        )  # fmt: skip
 
 
 def _surface(tets: np.ndarray, region: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -137,12 +128,11 @@ def cases_step(ctx: Context) -> tuple[dict, dict]:
         base | {"pedicle_e_pa": c.pedicle_e_pa, "gap_e_pa": c.gap_e_pa, "capsule_e_pa": c.capsule_e_pa}
         for c in THESIS_CASES
     ]
-    fe = ctx.run_static(designs)
-    lum = ctx.lumped(designs)
+    comp = ctx.compare(designs)
+    rel = {k: comp.rel_error(k) for k in STATIC_KEYS}
     rows = []
-    for i, (case, r) in enumerate(zip(THESIS_CASES, fe, strict=True)):
-        f = _static_row(r["alpha_rad"], r["beta_rad"])
-        lu = _static_row(lum.alpha_rad[i], lum.beta_rad[i])
+    for i, case in enumerate(THESIS_CASES):
+        f, lu = comp.fe_row(i), comp.lumped_row(i)
         rows.append(
             {
                 "case": case.name,
@@ -151,8 +141,8 @@ def cases_step(ctx: Context) -> tuple[dict, dict]:
                 "capsule_e_pa": case.capsule_e_pa,
                 "fe": f,
                 "lumped": lu,
-                "rel_diff": {k: lu[k] / f[k] - 1 for k in STATIC_KEYS},
-                "strain_energy_j": r["strain_energy_j"],
+                "rel_diff": {k: float(rel[k][i]) for k in STATIC_KEYS},
+                "strain_energy_j": comp.fe_results[i]["strain_energy_j"],
             }
         )
     base_fe = rows[0]["fe"]
@@ -167,7 +157,7 @@ def cases_step(ctx: Context) -> tuple[dict, dict]:
             dlu = row["lumped"][k] / rows[0]["lumped"][k] - 1
             same[k] = bool(abs(dfe) < 0.01 or np.sign(dfe) == np.sign(dlu))
         trends[row["case"]] = same
-    thesis = _static_row(THESIS_BASE_ALPHA_RAD, THESIS_BASE_BETA_RAD)
+    thesis = static_row(THESIS_BASE_ALPHA_RAD, THESIS_BASE_BETA_RAD)
     return {"rows": rows, "thesis_base": thesis, "trend_agrees": trends}, {}
 
 
@@ -189,14 +179,11 @@ def trends_step(ctx: Context) -> tuple[dict, dict]:
         arrays[f"{name}_alpha_rad"] = lum.alpha_rad
         arrays[f"{name}_beta_rad"] = lum.beta_rad
         xf = [float(v) for v in np.geomspace(lo, hi, t.fe_points)] if t.fe_points else []
-        fe = ctx.run_static([base | {name: v} for v in xf]) if xf else []
-        lum_f = ctx.lumped([base | {name: v} for v in xf]) if xf else None
+        comp = ctx.compare([base | {name: v} for v in xf])
         out[name] = {
             "domain_pa": [lo, hi],
             "fe_points": [
-                {"value_pa": v, "fe": _static_row(r["alpha_rad"], r["beta_rad"])}
-                | {"lumped": _static_row(lum_f.alpha_rad[i], lum_f.beta_rad[i])}
-                for i, (v, r) in enumerate(zip(xf, fe, strict=True))
+                {"value_pa": v, "fe": comp.fe_row(i), "lumped": comp.lumped_row(i)} for i, v in enumerate(xf)
             ],
         }
     return out, arrays
@@ -225,24 +212,12 @@ def calibration_step(ctx: Context) -> tuple[dict, dict]:
     designs = sample(space, c.check_samples, c.seed, method="sobol") if c.check_samples else []
     base = {"nu": ctx.config.design.nu}
     designs = [base | d for d in designs]
-    points = []
-    if designs:
-        fe = ctx.run_static(designs)
-        lum = ctx.lumped(designs)
-        for i, (d, r) in enumerate(zip(designs, fe, strict=True)):
-            f = _static_row(r["alpha_rad"], r["beta_rad"])
-            lu = _static_row(lum.alpha_rad[i], lum.beta_rad[i])
-            points.append({"design": d, "fe": f, "lumped": lu})
-    errs = {
-        k: [p["lumped"][k] / p["fe"][k] - 1 for p in points]
-        for k in ("alpha_rad", "beta_rad", "beta_over_alpha")
-    }
-    check = {
-        "n": len(points),
-        "seed": c.seed,
-        **{f"max_abs_{k}": float(np.max(np.abs(v))) if v else None for k, v in errs.items()},
-        **{f"rms_{k}": float(np.sqrt(np.mean(np.square(v)))) if v else None for k, v in errs.items()},
-    }
+    comp = ctx.compare(designs)
+    points = [
+        {"design": d, "fe": comp.fe_row(i), "lumped": comp.lumped_row(i)} for i, d in enumerate(designs)
+    ]
+    # max and RMS of the relative errors of α, β and β/α (None without designs)
+    check = {"n": comp.n, "seed": c.seed, **comp.error_summary()}
     return {
         "source": c.file or "shipped default",
         "factors": dict(cal.factors),
@@ -260,57 +235,41 @@ def calibration_step(ctx: Context) -> tuple[dict, dict]:
 def sweep_step(ctx: Context) -> tuple[dict, dict]:
     """Damped frequency response of the base design: lumped chain, FE harmonic checks, modes."""
     from isj.calibration.runner import run_designs
+    from isj.calibration.sweeps import chain_sweep, fe_check_frequencies, harmonic_record_response
     from isj.fem.batch import evaluate_harmonic, evaluate_modes
-    from isj.lumped.dynamics import OUTPUTS, chain_model, frequency_response
 
     cfg = ctx.config
     s = cfg.sweep
     cal = ctx.calibration
-    moduli = cfg.design.moduli()
-    model = chain_model(
-        cal.factor_array(),
-        cal.shear_factor,
-        cfg.geometry,
-        cfg.design.materials(),
-        rayleigh_a_per_s=s.rayleigh_a_per_s,
-        rayleigh_b_s=s.rayleigh_b_s,
-        loss_factor=s.loss_factor,
-        **moduli,
-    )
+    damping = {k: getattr(s, k) for k in ("rayleigh_a_per_s", "rayleigh_b_s", "loss_factor")}
     freq = np.geomspace(s.fmin_hz, s.fmax_hz, s.n_freq)
-    H = frequency_response(model, freq, cfg.design.pressure_pa)
-    poles_hz, zeta = model.poles()
-    undamped = chain_model(
-        cal.factor_array(), cal.shear_factor, cfg.geometry, cfg.design.materials(),
-        rayleigh_b_s=0.0, **moduli,
-    )  # fmt: skip
-    f_lumped, _ = undamped.poles()
+    sw = chain_sweep(
+        cal, freq, cfg.design.materials(), cfg.geometry, pressure_pa=cfg.design.pressure_pa, **damping
+    )
+    OUTPUTS, H = sw.outputs, sw.response  # the chain's output names and response
     design = ctx.base_design()
-    checks = []
-    if s.fe_checks:
-        fe_freq = [float(f) for f in np.geomspace(s.fmin_hz, s.fmax_hz, s.fe_checks + 2)[1:-1]]
-        hs = ctx.settings | {
-            "kind": "harmonic",
-            "freq_hz": fe_freq,
-            "rayleigh_a_per_s": s.rayleigh_a_per_s,
-            "rayleigh_b_s": s.rayleigh_b_s,
-            "loss_factor": s.loss_factor,
-        }
+
+    def fe_response(f):
+        """The FE harmonic outputs at ``f`` through the FE result cache."""
+        hs = ctx.settings | {"kind": "harmonic", "freq_hz": [float(v) for v in f]} | damping
         rec = run_designs(
             [design], evaluate_harmonic, hs, ctx.fe_cache_dir, max_workers=0, progress=ctx.progress
         )
-        fe = rec[0]["result"]
-        lum = frequency_response(model, fe_freq, cfg.design.pressure_pa)
-        for i, f in enumerate(fe_freq):
-            row = {"freq_hz": f}
+        return harmonic_record_response(rec[0]["result"], OUTPUTS)
+
+    checks = []
+    if s.fe_checks:
+        comp = sw.fe_checks(fe_check_frequencies(s.fmin_hz, s.fmax_hz, s.fe_checks), fe_response)
+        for i, f in enumerate(comp.freq_hz):
+            row = {"freq_hz": float(f)}
             for j, k in enumerate(OUTPUTS):
-                h_fe = complex(fe[f"{k}_re"][i], fe[f"{k}_im"][i])
+                h_fe, h_lu = comp.fe[i, j], comp.lumped[i, j]
                 row[k] = {
-                    "fe_abs": abs(h_fe),
+                    "fe_abs": float(abs(h_fe)),
                     "fe_phase_deg": float(np.degrees(np.angle(h_fe))),
-                    "lumped_abs": float(abs(lum[i, j])),
-                    "lumped_phase_deg": float(np.degrees(np.angle(lum[i, j]))),
-                    "rel_error": float(abs(lum[i, j] / h_fe - 1)),
+                    "lumped_abs": float(abs(h_lu)),
+                    "lumped_phase_deg": float(np.degrees(np.angle(h_lu))),
+                    "rel_error": float(comp.rel_error[i, j]),
                 }
             checks.append(row)
     ms = ctx.settings | {"kind": "modes", "n_modes": s.n_modes}
@@ -322,10 +281,11 @@ def sweep_step(ctx: Context) -> tuple[dict, dict]:
         "outputs": list(OUTPUTS),
         "fmin_hz": s.fmin_hz,
         "fmax_hz": s.fmax_hz,
-        "damping": {k: getattr(s, k) for k in ("rayleigh_a_per_s", "rayleigh_b_s", "loss_factor")},
-        "lumped_natural_freq_hz": [float(v) for v in f_lumped],
-        "lumped_damped_pole_freq_hz": [float(v) for v in poles_hz],
-        "lumped_damping_ratio": [float(v) for v in zeta],
+        "damping": damping,
+        # the chain's poles: undamped natural frequencies (damping leaves them) and damping ratios
+        "lumped_natural_freq_hz": [float(v) for v in sw.natural_freq_hz],
+        "lumped_damped_pole_freq_hz": [float(v) for v in sw.natural_freq_hz],
+        "lumped_damping_ratio": [float(v) for v in sw.damping_ratio],
         "fe_modes_hz": fe_modes["freq_hz"],
         "fe_in_plane_modes_hz": fe_modes["in_plane_freq_hz"],
         "fe_mode_y_to_x": fe_modes["y_to_x_fraction"],
