@@ -1,6 +1,55 @@
-"""Shared fixtures: a private mesh cache and one coarse model reused across tests."""
+"""Shared fixtures: a private mesh cache, one coarse model and one coarse report reused across tests.
+
+Hard dependencies (gmsh, casadi, numpy, meshio, pypdf, scikit-fem) are imported
+directly by the tests: a machine where one of them cannot load fails, it does
+not report green with tests skipped. Only optional backends may skip; the run's
+header lists which of them this machine has, and the summary which were skipped.
+"""
+
+import importlib.util
+import json
 
 import pytest
+
+#: Optional backends: name → (what it is, is it importable here).
+OPTIONAL_BACKENDS = {
+    "pardiso": "PARDISO sparse solver (pypardiso; x86-64 only)",
+    "cholmod": "CHOLMOD sparse solver (scikit-sparse)",
+    "mumps": "MUMPS sparse solver (python-mumps)",
+    "distributed": "Dask's distributed scheduler",
+}
+
+
+def _available() -> dict[str, bool]:
+    from isj.fem.solvers import available_backends
+
+    solvers = available_backends()
+    return {
+        "pardiso": "pardiso" in solvers,
+        "cholmod": "cholmod" in solvers,
+        "mumps": importlib.util.find_spec("mumps") is not None,
+        "distributed": importlib.util.find_spec("distributed") is not None,
+    }
+
+
+def pytest_report_header(config):
+    """One line: which optional backends this machine has (tests that need a missing one skip)."""
+    have = _available()
+    listed = ", ".join(f"{k} {'yes' if ok else 'NO'}" for k, ok in have.items())
+    return [f"optional backends: {listed} (tests needing a missing one skip)"]
+
+
+def pytest_terminal_summary(terminalreporter):
+    """Name the optional backends whose tests were skipped, with how many tests each."""
+    counts = dict.fromkeys(OPTIONAL_BACKENDS, 0)
+    for rep in terminalreporter.stats.get("skipped", []):
+        text = str(rep.longrepr).lower()
+        for name in counts:
+            if name in text:
+                counts[name] += 1
+    skipped = [f"{name} ({OPTIONAL_BACKENDS[name]}): {n} test(s)" for name, n in counts.items() if n]
+    if skipped:
+        terminalreporter.write_line("skipped for lack of an optional backend: " + "; ".join(skipped))
 
 
 @pytest.fixture(scope="session", autouse=True)
@@ -15,7 +64,80 @@ def _private_mesh_cache(tmp_path_factory):
 @pytest.fixture(scope="session")
 def coarse_model():
     """A coarse P2 model (seconds to build): for properties that hold on any mesh."""
-    pytest.importorskip("gmsh")
     from isj.fem.model import PedicleJointModel
 
     return PedicleJointModel(order=2, resolution=0.35)
+
+
+# ---- one coarse report, shared by tests/test_report.py and tests/test_cache_keys.py ----------------
+
+#: The coarse report's configuration: P2 at resolution 0.35, few points per section.
+COARSE_REPORT = {
+    "mesh": {"order": 2, "resolution": 0.35},
+    "trends": {"moduli": ["gap_e_pa", "pedicle_e_pa"], "n_lumped": 9, "fe_points": 2},
+    "convergence": {"orders": [2], "directions": ["y"]},
+    "calibration": {"check_samples": 2, "seed": 7},
+    "sweep": {"n_freq": 20, "fe_checks": 1, "n_modes": 3},
+}
+
+
+def report_toml(cfg: dict) -> str:
+    """A case file (TOML) for a configuration given as {section: {key: value}}."""
+    out = []
+    for section, values in cfg.items():
+        out.append(f"[{section}]")
+        for k, v in values.items():
+            out.append(f"{k} = {json.dumps(v)}")
+    return "\n".join(out) + "\n"
+
+
+class _Interrupted(Exception):
+    pass
+
+
+@pytest.fixture(scope="session")
+def report(tmp_path_factory):
+    """Run the coarse report: interrupted at the sweep, then again to the end, then once more.
+
+    Returns ``dir`` (the output folder), ``case`` (its TOML), ``config``, ``fe_cache``
+    (``$ISJ_FE_CACHE_DIR``: FE results, and the step cache in its ``report`` folder),
+    the ``first`` and ``second`` complete runs' results, the PDF's bytes after the
+    first, and whether a PDF existed after the interrupted run.
+    """
+    import isj.reports.run as run_mod
+    from isj.reports.config import load_config
+
+    tmp = tmp_path_factory.mktemp("report")
+    mp = pytest.MonkeyPatch()
+    mp.setenv("ISJ_FE_CACHE_DIR", str(tmp / "fe-cache"))
+    case = tmp / "case.toml"
+    case.write_text(report_toml(COARSE_REPORT))
+    config = load_config(case)
+    out = tmp / "out"
+
+    def interrupted(ctx):
+        raise _Interrupted
+
+    original = run_mod.STEPS
+    try:
+        steps = tuple((n, interrupted if n == "sweep" else f, s) for n, f, s in original)
+        mp.setattr(run_mod, "STEPS", steps)
+        with pytest.raises(_Interrupted):
+            run_mod.run_report(config, out, verbosity=0)
+        pdf_after_interrupt = (out / "report.pdf").exists()
+        mp.setattr(run_mod, "STEPS", original)
+        first = run_mod.run_report(config, out, verbosity=0)
+        first_bytes = (out / "report.pdf").read_bytes()
+        second = run_mod.run_report(config, out, verbosity=0)
+    finally:
+        mp.undo()  # this report's FE cache holds only while it runs: other tests keep their own
+    return {
+        "dir": out,
+        "case": case,
+        "config": config,
+        "fe_cache": tmp / "fe-cache",
+        "first": first,
+        "second": second,
+        "first_bytes": first_bytes,
+        "pdf_after_interrupt": pdf_after_interrupt,
+    }

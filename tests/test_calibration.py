@@ -2,18 +2,16 @@
 
 import json
 
+import casadi  # noqa: F401 - a hard dependency: without it these tests fail, they do not skip
+import gmsh  # noqa: F401 - a hard dependency: without it these tests fail, they do not skip
 import numpy as np
 import pytest
+from isj.calibration.doe import DesignSpace
+from isj.calibration.pipeline import calibrate
+from isj.fem.batch import evaluate_design, fe_settings
+from isj.lumped.artifact import Calibration, CorruptCalibration, default_calibration
 
-pytest.importorskip("casadi")
-pytest.importorskip("gmsh")
-
-from isj.calibration.doe import DesignSpace  # noqa: E402
-from isj.calibration.pipeline import calibrate  # noqa: E402
-from isj.fem.batch import evaluate_design, fe_settings  # noqa: E402
-from isj.lumped.artifact import Calibration, CorruptCalibration, default_calibration  # noqa: E402
-
-from isj.cli import main  # noqa: E402
+from isj.cli import main
 
 COARSE_FE = {"order": 2, "resolution": 0.5}
 # pedicle, gap and capsule moduli vary; plate and stapes stay at their defaults

@@ -2,6 +2,8 @@
 
 import json
 
+import meshio
+import numpy as np
 import pytest
 
 from isj.cli import main
@@ -31,7 +33,6 @@ def test_solve_moduli_options_change_the_answer(capsys):
 
 
 def test_solve_writes_vtu_and_run_record(capsys, tmp_path):
-    meshio = pytest.importorskip("meshio")
     vtu = tmp_path / "out" / "base.vtu"
     code, _, _ = run(capsys, ["fem", "solve", *COARSE, "--vtu", str(vtu)])
     assert code == 0
@@ -129,7 +130,6 @@ def test_modes_json_and_vtu(capsys, tmp_path):
 
 
 def test_sweep_writes_csv_npz_plot_and_guards(capsys, tmp_path):
-    np = pytest.importorskip("numpy")
     out = tmp_path / "sw"
     argv = ["sweep", "--out", str(out), "--n", "50", "--fe-checks", "1", "--order", "1", *COARSE, "--json"]
     code, text, err = run(capsys, argv + ["--tolerance", "50"])  # P1 coarse: far from the calibration

@@ -2,20 +2,18 @@
 
 import math
 
+import gmsh  # noqa: F401 - a hard dependency: without it these tests fail, they do not skip
 import numpy as np
 import pytest
+from isj.fem.ear.footplate import footplate_mesh
+from isj.fem.ear.middle_ear import MiddleEarModel, joint_frame
+from isj.fem.ear.rigid import axis_of_rotation, grounded_springs, point_map
+from isj.fem.ear.shell import NDOF
+from isj.fem.model import PedicleJointModel
 
-pytest.importorskip("gmsh")
-
-from isj.fem.ear.footplate import footplate_mesh  # noqa: E402
-from isj.fem.ear.middle_ear import MiddleEarModel, joint_frame  # noqa: E402
-from isj.fem.ear.rigid import axis_of_rotation, grounded_springs, point_map  # noqa: E402
-from isj.fem.ear.shell import NDOF  # noqa: E402
-from isj.fem.model import PedicleJointModel  # noqa: E402
-
-from isj.cases import THESIS_CASES  # noqa: E402
-from isj.design import REGIONS, InvalidParameter, Materials  # noqa: E402
-from isj.ear import EarGeometry, EarMasses, EarMaterials  # noqa: E402
+from isj.cases import THESIS_CASES
+from isj.design import REGIONS, InvalidParameter, Materials
+from isj.ear import EarGeometry, EarMasses, EarMaterials
 
 CAT = EarGeometry()
 NO_SPRINGS = EarMaterials(

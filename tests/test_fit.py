@@ -1,13 +1,12 @@
 """Calibration fit: recovers known factors from synthetic data; a failed fit says so."""
 
+import casadi  # noqa: F401 - a hard dependency: without it these tests fail, they do not skip
 import numpy as np
 import pytest
+from isj.calibration.fit import FitFailed, fit_factors
 from isj.lumped.model import FACTOR_NAMES, MODULI, Lever, equations
 
 from isj.design import Geometry
-
-pytest.importorskip("casadi")
-from isj.calibration.fit import FitFailed, fit_factors  # noqa: E402
 
 
 def synthetic_records(factors, n=40, seed=3):

@@ -1,5 +1,6 @@
 """Lumped model: beam limit by hand, vectorisation, one set of equations for numpy and CasADi."""
 
+import casadi as ca
 import numpy as np
 import pytest
 from isj.lumped.model import FACTOR_NAMES, MODULI, Lever, equations, moduli_arrays, static_response
@@ -50,7 +51,6 @@ def test_physical_trends():
 
 
 def test_casadi_expression_is_the_same_model():
-    ca = pytest.importorskip("casadi")
     lever = Lever.from_geometry(Geometry())
     f = ca.SX.sym("f", len(FACTOR_NAMES))
     E = moduli_arrays(pedicle_e_pa=np.array([2e9, 7e9]), gap_e_pa=np.array([3e6, 30e6]))

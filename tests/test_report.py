@@ -1,6 +1,6 @@
 """``isj report``: the PDF's pages and numbers, its figures, caching, bad configuration.
 
-One coarse report (P2, resolution 0.35, few points) is computed per module,
+One coarse report (P2, resolution 0.35, few points) is computed per session,
 first interrupted at its last step, then completed, so that resume, caching
 and the PDF are all checked on the same run.
 """
@@ -9,72 +9,14 @@ import json
 import math
 
 import numpy as np
+import pypdf
 import pytest
 from isj.reports import pdf
 from isj.reports.config import ConfigError, ReportConfig, load_config
 
 from isj.cli import main
 
-pypdf = pytest.importorskip("pypdf")
-
-COARSE = {
-    "mesh": {"order": 2, "resolution": 0.35},
-    "trends": {"moduli": ["gap_e_pa", "pedicle_e_pa"], "n_lumped": 9, "fe_points": 2},
-    "convergence": {"orders": [2], "directions": ["y"]},
-    "calibration": {"check_samples": 2, "seed": 7},
-    "sweep": {"n_freq": 20, "fe_checks": 1, "n_modes": 3},
-}
-
-
-def _toml(cfg: dict) -> str:
-    out = []
-    for section, values in cfg.items():
-        out.append(f"[{section}]")
-        for k, v in values.items():
-            out.append(f"{k} = {json.dumps(v)}")
-    return "\n".join(out) + "\n"
-
-
-class _Interrupted(Exception):
-    pass
-
-
-@pytest.fixture(scope="module")
-def report(tmp_path_factory):
-    """Run the coarse report: interrupted at the sweep, then again to the end, then once more."""
-    pytest.importorskip("gmsh")
-    import isj.reports.run as run_mod
-
-    tmp = tmp_path_factory.mktemp("report")
-    mp = pytest.MonkeyPatch()
-    mp.setenv("ISJ_FE_CACHE_DIR", str(tmp / "fe-cache"))
-    case = tmp / "case.toml"
-    case.write_text(_toml(COARSE))
-    config = load_config(case)
-    out = tmp / "out"
-
-    def interrupted(ctx):
-        raise _Interrupted
-
-    original = run_mod.STEPS
-    mp.setattr(run_mod, "STEPS", tuple((n, interrupted if n == "sweep" else f, s) for n, f, s in original))
-    with pytest.raises(_Interrupted):
-        run_mod.run_report(config, out, verbosity=0)
-    pdf_after_interrupt = (out / "report.pdf").exists()
-    mp.setattr(run_mod, "STEPS", original)
-    first = run_mod.run_report(config, out, verbosity=0)
-    first_bytes = (out / "report.pdf").read_bytes()
-    second = run_mod.run_report(config, out, verbosity=0)
-    yield {
-        "dir": out,
-        "case": case,
-        "config": config,
-        "first": first,
-        "second": second,
-        "first_bytes": first_bytes,
-        "pdf_after_interrupt": pdf_after_interrupt,
-    }
-    mp.undo()
+# the coarse report itself is the `report` fixture of tests/conftest.py (shared with the cache tests)
 
 
 def _pages_text(path) -> list[str]:

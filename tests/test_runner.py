@@ -7,7 +7,6 @@ import uuid
 from pathlib import Path
 
 import pytest
-from isj.cachefile import json_checksum
 from isj.calibration.runner import (
     CorruptCacheEntry,
     EvaluationError,
@@ -15,6 +14,8 @@ from isj.calibration.runner import (
     design_key,
     run_designs,
 )
+
+from isj.cachefile import json_checksum
 
 
 def fake_evaluate(design: dict, settings: dict) -> dict:
@@ -191,7 +192,6 @@ def test_dask_matches_process_pool(tmp_path, settings):
 
 
 def test_fe_evaluate_design_linear_and_memoised():
-    pytest.importorskip("gmsh")
     from isj.fem import batch
 
     from isj.design import DEFAULT_PRESSURE_PA, InvalidParameter
@@ -228,7 +228,6 @@ def test_fe_evaluate_design_linear_and_memoised():
 
 def test_fe_evaluator_through_the_runner(tmp_path):
     """fem.batch.evaluate_design pickles into a spawned worker and its results cache."""
-    pytest.importorskip("gmsh")
     from isj.fem import batch
 
     s = batch.fe_settings(order=1, resolution=0.35)

@@ -35,7 +35,6 @@ def stiffness(space, youngs, nu):
 
 def gmsh_box(resolution=3.0):
     """An unstructured gmsh mesh of the pedicle box (irregular tetrahedra)."""
-    pytest.importorskip("gmsh")
     from isj.fem.mesh import mesh_cantilever
 
     return mesh_cantilever(resolution=resolution, cache_dir=False)
