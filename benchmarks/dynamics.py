@@ -35,12 +35,11 @@ def calibration_frequencies(cal, samples=16, validation=8, seed=100):
     The designs of ``isj calibrate`` (defaults: 16 Sobol training designs, seed 100; 8 Latin
     hypercube held-out ones, seed 101) from the calibration's domain and FE settings.
     """
-    import os
-    from pathlib import Path
-
     from isj.calibration.doe import DesignSpace, sample
     from isj.calibration.runner import run_designs
     from isj.fem.batch import evaluate_modes, fe_settings
+
+    from isj.caches import fe_cache_dir
 
     space = DesignSpace.from_dict(cal.domain)
     sets = {
@@ -50,7 +49,7 @@ def calibration_frequencies(cal, samples=16, validation=8, seed=100):
     fs = cal.fe_settings
     settings = fe_settings(order=fs.get("order", 2), resolution=fs.get("resolution", 1.0))
     settings |= {"kind": "modes", "n_modes": 6}
-    cache = Path(os.environ.get("ISJ_FE_CACHE_DIR", Path.home() / ".cache" / "isj" / "fe"))
+    cache = fe_cache_dir()
     f = cal.factor_array()
     for name, designs in sets.items():
         recs = run_designs(designs, evaluate_modes, settings, cache, max_workers=0, progress=False)

@@ -15,16 +15,14 @@ sign of each case's change from the base case).
 from __future__ import annotations
 
 import sys
-from pathlib import Path
 
 import numpy as np
-from isj.calibration.runner import run_designs
+from isj.calibration.checks import compare_static
 from isj.fem.batch import evaluate_design, fe_settings
 from isj.lumped.artifact import default_calibration
-from isj.lumped.model import static_response
 
+from isj.caches import fe_cache_dir
 from isj.cases import THESIS_CASES
-from isj.design import DEFAULT_PRESSURE_PA
 
 
 def _trend(a, b, i, threshold):
@@ -33,20 +31,15 @@ def _trend(a, b, i, threshold):
     return np.sign(rel) * (np.abs(rel) > threshold)
 
 
+def _compare(cal, designs: list[dict], progress: bool = False):
+    """FE (default mesh, cached) and the lumped model over ``designs``: a StaticComparison."""
+    return compare_static(cal, designs, evaluate_design, fe_settings(), fe_cache_dir(), progress=progress)
+
+
 def _errors(cal, designs: list[dict], progress: bool = False):
     """Relative errors lumped/FE − 1 of α, β and β/α over ``designs`` (FE cached)."""
-    recs = run_designs(
-        designs, evaluate_design, fe_settings(), Path.home() / ".cache" / "isj" / "fe", progress=progress
-    )
-    lum = static_response(
-        cal.factor_array(),
-        pressure_pa=DEFAULT_PRESSURE_PA,
-        **{k: np.array([d[k] for d in designs]) for k in designs[0]},
-    )
-    fe_a = np.array([r["result"]["alpha_rad"] for r in recs])
-    fe_b = np.array([r["result"]["beta_rad"] for r in recs])
-    ratio = (lum.beta_rad / lum.alpha_rad) / (fe_b / fe_a) - 1
-    return lum.alpha_rad / fe_a - 1, lum.beta_rad / fe_b - 1, ratio
+    comp = _compare(cal, designs, progress)
+    return tuple(comp.rel_error(k) for k in ("alpha_rad", "beta_rad", "beta_over_alpha"))
 
 
 def fresh_check(cal, n: int, seed: int = 12345) -> None:
@@ -101,25 +94,18 @@ def main():
         {"pedicle_e_pa": c.pedicle_e_pa, "gap_e_pa": c.gap_e_pa, "capsule_e_pa": c.capsule_e_pa}
         for c in THESIS_CASES
     ]
-    recs = run_designs(
-        designs, evaluate_design, fe_settings(), Path.home() / ".cache" / "isj" / "fe", progress=False
-    )
-    lum = static_response(
-        cal.factor_array(),
-        pressure_pa=DEFAULT_PRESSURE_PA,
-        **{k: np.array([d[k] for d in designs]) for k in designs[0]},
-    )
-    fe_a = np.array([r["result"]["alpha_rad"] for r in recs])
-    fe_b = np.array([r["result"]["beta_rad"] for r in recs])
+    comp = _compare(cal, designs)
+    fe_a, fe_b = comp.fe_alpha_rad, comp.fe_beta_rad
+    lum_a, lum_b = comp.lumped_alpha_rad, comp.lumped_beta_rad
     print(
         f"{'case':7} {'FE alpha':>9} {'lumped':>9} {'err':>7} {'FE beta':>9} {'lumped':>9} {'err':>7} trend"
     )
     same = strict = 0
     for i, c in enumerate(THESIS_CASES):
-        ok = bool(np.all(_trend(fe_a, fe_b, i, 1e-2) == _trend(lum.alpha_rad, lum.beta_rad, i, 1e-2)))
-        strict += bool(np.all(_trend(fe_a, fe_b, i, 1e-3) == _trend(lum.alpha_rad, lum.beta_rad, i, 1e-3)))
+        ok = bool(np.all(_trend(fe_a, fe_b, i, 1e-2) == _trend(lum_a, lum_b, i, 1e-2)))
+        strict += bool(np.all(_trend(fe_a, fe_b, i, 1e-3) == _trend(lum_a, lum_b, i, 1e-3)))
         same += ok
-        la, lb = lum.alpha_rad[i], lum.beta_rad[i]
+        la, lb = lum_a[i], lum_b[i]
         print(
             f"{c.name:7} {fe_a[i] * 1e6:9.4f} {la * 1e6:9.4f} {100 * (la / fe_a[i] - 1):+6.2f}% "
             f"{fe_b[i] * 1e6:9.4f} {lb * 1e6:9.4f} {100 * (lb / fe_b[i] - 1):+6.2f}% "
