@@ -1,7 +1,7 @@
 """Result types shared by the FE and the lumped models: one frequency response, computed apart from drawing.
 
 :class:`FrequencyResponse` is what every frequency sweep of isj returns: the
-lumped chain (:func:`isj.lumped.dynamics.chain_response`), the lumped ear
+lumped chain (:meth:`isj.lumped.api.LumpedModel.chain_response`), the lumped ear
 (:meth:`isj.lumped.ear.LumpedEar.response`), the FE model's harmonic outputs
 (:func:`isj.fem.dynamics.harmonic_response`) and the FE ear
 (:meth:`isj.fem.ear.ear_dynamics.EarHarmonicResult.response`). As in
@@ -71,9 +71,7 @@ class FrequencyResponse:
         ins, in_units = tuple(self.input_names), tuple(self.input_units)
         expected = (f.size, len(names), len(ins))
         if h.shape != expected:
-            raise InvalidParameter(
-                f"response: shape {h.shape}, expected (n_freq, n_out, n_in) = {expected}"
-            )
+            raise InvalidParameter(f"response: shape {h.shape}, expected (n_freq, n_out, n_in) = {expected}")
         if len(units) != len(names) or len(in_units) != len(ins):
             raise InvalidParameter("output_units/input_units: need one unit per output and per input")
         if len(set(names)) != len(names) or not all(isinstance(n, str) and n for n in names + ins):
@@ -170,9 +168,7 @@ class FrequencyResponse:
 
     def _columns(self) -> list[str]:
         one = len(self.input_names) == 1
-        return [
-            name if one else f"{name}/{inp}" for name in self.output_names for inp in self.input_names
-        ]
+        return [name if one else f"{name}/{inp}" for name in self.output_names for inp in self.input_names]
 
     def to_csv(self, path: str | os.PathLike, digits: int = 17) -> Path:
         """Write a CSV (atomically): two ``#`` lines of units and input, then one row per frequency.

@@ -25,9 +25,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from isj.design import DEFAULT_PRESSURE_PA, Geometry, InvalidParameter, Materials
+from isj.validate import check_frequencies
 
 from .artifact import Calibration, default_calibration
-from .dynamics import SecondOrderModel, chain_model, chain_response
+from .dynamics import OUTPUTS, UNITS, SecondOrderModel, chain_model
 from .ear import LumpedEar, ear_model
 from .model import MODULI, StaticResponse, moduli_arrays, static_response
 
@@ -71,6 +72,30 @@ def _pressure(pressure_pa):
     if p.size == 0 or not np.all(np.isfinite(p)) or np.any(p == 0):
         raise InvalidParameter(f"pressure_pa = {pressure_pa!r} Pa: every value must be finite and non-zero")
     return float(p) if p.ndim == 0 else p
+
+
+def chain_response(model: SecondOrderModel, freq_hz, pressure_pa: float = DEFAULT_PRESSURE_PA):
+    """One design's chain response at ``freq_hz`` (Hz) to a pressure amplitude (Pa), as a FrequencyResponse.
+
+    The numbers of :func:`isj.lumped.dynamics.frequency_response`, bit for bit.
+
+    Parameters
+    ----------
+    model : one design's :func:`isj.lumped.dynamics.chain_model` (no design axis)
+    freq_hz : frequencies (Hz), >= 0
+    pressure_pa : pressure amplitude on the incus's face (Pa)
+
+    Returns
+    -------
+    isj.responses.FrequencyResponse : outputs :data:`isj.lumped.dynamics.OUTPUTS` (rad, rad, m)
+    """
+    from isj.responses import FrequencyResponse
+
+    if model.M.ndim != 2:
+        raise InvalidParameter("model: one design only (no design axis); use model.freq_resp for many")
+    f = check_frequencies(freq_hz)
+    H = model.freq_resp(f) * pressure_pa
+    return FrequencyResponse(f, H, OUTPUTS, tuple(UNITS[k] for k in OUTPUTS), input_amplitude=pressure_pa)
 
 
 class LumpedModel:

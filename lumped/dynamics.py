@@ -487,26 +487,3 @@ def frequency_response(model: SecondOrderModel, freq_hz, pressure_pa: float = DE
     """Complex α, β (rad) and incus u_x (m) at ``freq_hz`` for a pressure amplitude (Pa)."""
     return model.freq_resp(freq_hz)[..., 0] * pressure_pa
 
-
-def chain_response(model: SecondOrderModel, freq_hz, pressure_pa: float = DEFAULT_PRESSURE_PA):
-    """The chain's response at ``freq_hz`` (Hz) to a pressure amplitude (Pa), as a FrequencyResponse.
-
-    The numbers of :func:`frequency_response` (bit for bit), for one design.
-
-    Parameters
-    ----------
-    model : one design's :func:`chain_model` (no design axis)
-    freq_hz : frequencies (Hz), >= 0
-    pressure_pa : pressure amplitude on the incus's face (Pa), > 0
-
-    Returns
-    -------
-    isj.responses.FrequencyResponse : outputs :data:`OUTPUTS` (rad, rad, m), one input (the pressure)
-    """
-    from isj.responses import FrequencyResponse
-
-    if model.M.ndim != 2:
-        raise InvalidParameter("model: one design only (no design axis); use model.freq_resp for many")
-    f = check_frequencies(freq_hz)
-    H = model.freq_resp(f) * pressure_pa
-    return FrequencyResponse(f, H, OUTPUTS, tuple(UNITS[k] for k in OUTPUTS), input_amplitude=pressure_pa)
