@@ -98,14 +98,26 @@ def chain_response(model: SecondOrderModel, freq_hz, pressure_pa: float = DEFAUL
     return FrequencyResponse(f, H, OUTPUTS, tuple(UNITS[k] for k in OUTPUTS), input_amplitude=pressure_pa)
 
 
+def _fitted_geometry(calibration: Calibration) -> Geometry:
+    """The geometry (m) in a calibration's FE settings, else the default one."""
+    fields = calibration.fe_settings.get("geometry")
+    if not fields:
+        return Geometry()
+    try:
+        return Geometry(**fields)
+    except (TypeError, ValueError) as exc:  # InvalidParameter is a ValueError
+        raise InvalidParameter(f"calibration fe_settings.geometry: not a valid geometry ({exc})") from None
+
+
 class LumpedModel:
     """The calibrated lumped model of the pedicle and the joint (static, chain dynamics, whole ear).
 
     Parameters
     ----------
     calibration : fitted factors, domain and joint shear factor (default: the shipped one)
-    geometry : the joint model's dimensions (m); the calibration holds for the geometry it
-        was fitted on (the default one for the shipped calibration)
+    geometry : the joint model's dimensions (m); default: the geometry the calibration was
+        fitted on (its ``fe_settings``; the default geometry for the shipped calibration), the
+        one it holds for
 
     Notes
     -----
@@ -123,7 +135,7 @@ class LumpedModel:
         if geometry is not None and not isinstance(geometry, Geometry):
             raise InvalidParameter(f"geometry: must be an isj.design.Geometry, not {type(geometry).__name__}")
         self.calibration = calibration or default_calibration()
-        self.geometry = geometry or Geometry()
+        self.geometry = geometry or _fitted_geometry(self.calibration)
 
     @classmethod
     def default(cls) -> LumpedModel:

@@ -145,6 +145,22 @@ def test_bad_input_names_the_parameter(lm, call, match):
         call(lm)
 
 
+def test_geometry_is_the_calibrations(lm):
+    import dataclasses
+
+    assert lm.geometry == isj.Geometry()  # the shipped calibration's FE geometry is the default one
+    cal = default_calibration()
+    wider = dict(cal.fe_settings["geometry"], pedicle_x_m=70e-6)
+    other = isj.LumpedModel(dataclasses.replace(cal, fe_settings=dict(cal.fe_settings, geometry=wider)))
+    assert other.geometry.pedicle_x_m == 70e-6
+    # a thicker pedicle bends less: β drops; α, the joint's, does not depend on the pedicle's section
+    assert float(other.static().beta_rad) < float(lm.static().beta_rad)
+    assert float(other.static().alpha_rad) == pytest.approx(float(lm.static().alpha_rad), rel=1e-14)
+    bad = dataclasses.replace(cal, fe_settings=dict(cal.fe_settings, geometry={"pedicle_x_m": -1.0}))
+    with pytest.raises(InvalidParameter, match="geometry"):
+        isj.LumpedModel(bad)
+
+
 def test_load_and_corrupt_file(tmp_path):
     path = tmp_path / "cal.json"
     path.write_text(default_calibration().to_json())
