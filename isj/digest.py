@@ -113,14 +113,39 @@ def imports_in(tree: ast.AST, package: str) -> frozenset[str]:
 
 
 @functools.cache
-def module_imports(name: str, top_level_only: bool = False) -> frozenset[str]:
-    """isj modules that the module ``name`` imports (anywhere in it, or only at its top level)."""
-    tree = ast.parse(module_source(name))
-    if top_level_only:
-        top = [n for n in tree.body if isinstance(n, ast.Import | ast.ImportFrom)]
-        tree = ast.Module(body=top, type_ignores=[])
-    package = name if _is_package(name) else name.rpartition(".")[0]
-    return imports_in(tree, package)
+def module_imports(name: str) -> frozenset[str]:
+    """isj modules that the module ``name`` imports, anywhere in it."""
+    return imports_in(ast.parse(module_source(name)), _package_of(name))
+
+
+def _package_of(name: str) -> str:
+    return name if _is_package(name) else name.rpartition(".")[0]
+
+
+def top_level_names(name: str) -> dict[str, str]:
+    """Names that the top-level imports of the module ``name`` bind → the isj module each comes from.
+
+    ``from isj.cases import THESIS_CASES`` gives ``{"THESIS_CASES": "isj.cases"}``;
+    ``from isj import fem`` gives ``{"fem": "isj.fem"}``. Imports from outside isj are left out.
+    """
+    return dict(_top_level_names(name))  # a copy: the cached one stays as read
+
+
+@functools.cache
+def _top_level_names(name: str) -> dict[str, str]:
+    package = _package_of(name)
+    out: dict[str, str] = {}
+    for node in ast.parse(module_source(name)).body:
+        if isinstance(node, ast.Import):
+            for a in node.names:
+                if _own(a.name):
+                    out[a.asname or a.name.partition(".")[0]] = a.name
+        elif isinstance(node, ast.ImportFrom):
+            for a in node.names:
+                tree = ast.Module(body=[ast.ImportFrom(node.module, [a], node.level)], type_ignores=[])
+                for module in imports_in(tree, package):
+                    out[a.asname or a.name] = module
+    return out
 
 
 def closure(modules: Iterable[str]) -> tuple[str, ...]:

@@ -393,26 +393,36 @@ def step_inputs(ctx: Context, sections: tuple[str, ...], step=None) -> dict:
     }
 
 
-def step_code_digest(ctx: Context, step=None) -> str:
-    """sha256 (hex) of the code a step runs, found through the import system (:mod:`isj.digest`).
+def step_modules(ctx: Context, step=None) -> tuple[str, ...]:
+    """The isj modules whose code a step runs, sorted (``step`` None: every step's).
 
-    This module's source, and every isj module, with all that it imports in turn,
-    that is imported at this module's top level, inside the step function, or inside
-    the helpers here and the :class:`Context` members the step uses (``ctx.lumped``
-    brings in :mod:`isj.lumped.model`), plus the modules of the objects in the
-    context that it reads (``ctx.calibration``: :mod:`isj.lumped.artifact`). An edit
-    of the lumped model thus recomputes the steps that use it, and only those.
+    Every isj module, with all that it imports in turn, that the step function
+    imports, or whose names it uses (imported at this module's top level), or that
+    the helpers here and the :class:`Context` members it uses import in the same
+    way (``ctx.lumped`` brings in :mod:`isj.lumped.model`), plus the modules of the
+    objects in the context that it reads (``ctx.calibration``:
+    :mod:`isj.lumped.artifact`). Found through the import system (:mod:`isj.digest`).
     """
-    import hashlib
     import inspect
 
     from isj import digest
 
+    imported = digest.top_level_names(__name__)  # e.g. static_row → isj.calibration.checks
     here = {n: f for n, f in globals().items() if inspect.isfunction(f) and f.__module__ == __name__}
     members = {n: m for n, m in vars(Context).items() if inspect.isfunction(m) or isinstance(m, property)}
     held = {f.name: type(getattr(ctx, f.name)).__module__ for f in dataclasses.fields(ctx)}
     steps = [fn for _, fn, _ in STEPS] if step is None else [step]
-    used = digest.function_imports(*steps, follow=here | members | held)
-    used |= digest.module_imports(__name__, top_level_only=True)
-    text = digest.source_digest(__name__) + digest.code_digest(*used)
+    return digest.closure(digest.function_imports(*steps, follow=imported | here | members | held))
+
+
+def step_code_digest(ctx: Context, step=None) -> str:
+    """sha256 (hex) of this module's source and of the :func:`step_modules` of ``step``.
+
+    An edit of the lumped model thus recomputes the steps that use it, and only those.
+    """
+    import hashlib
+
+    from isj import digest
+
+    text = digest.source_digest(__name__) + digest.code_digest(*step_modules(ctx, step))
     return hashlib.sha256(text.encode()).hexdigest()
