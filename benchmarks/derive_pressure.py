@@ -4,7 +4,7 @@ Run:  .venv/bin/python benchmarks/derive_pressure.py      (about 3 minutes on 2 
 
 The model is linear, so the pressure that gives the thesis's base case
 α + β = 13.433 µrad is p = 13.433 µrad / (α + β per Pa) on a converged mesh.
-α and β converge slowly because of singular edges (spec §2.2 geometry has
+α and β converge slowly because of singular edges (the geometry of docs/model.md §2.2 has
 sharp re-entrant corners and a capsule bonded over short strips), and each
 is governed by its own edges:
 

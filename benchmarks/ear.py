@@ -1,8 +1,8 @@
-"""Whole cat middle ear, static (spec §5): solve time, displacements per Pa against experiment.
+"""Whole cat middle ear, static (docs/ear.md §5.12): solve time, displacements per Pa against experiment.
 
 Usage: ``.venv/bin/python benchmarks/ear.py [--resolution R] [--json PATH]``
 
-Prints, for the spec's parameters: the umbo, maximum eardrum and footplate
+Prints, for the default parameters (docs/ear.md §5.8): the umbo, maximum eardrum and footplate
 displacements per Pa of ear-canal pressure against the cat experiments
 (Guinan & Peake 1967; Decraemer et al. 2000), the malleus–incus axis, α and β
 inside the ear for the seven thesis cases against the isolated joint model,
@@ -47,7 +47,7 @@ def sensitivity(base: EarGeometry) -> list[tuple[str, dict]]:
     springs = dict(malleus_ligament_n_m=m.malleus_ligament_n_m, incudal_lateral_n_m=m.incudal_lateral_n_m)
     springs["incudal_medial_n_m"] = m.incudal_medial_n_m
     cases = [
-        ("spec parameters", base, m),
+        ("default parameters", base, m),
         ("drum E x 0.5", base, m.replace(drum_e_pa=0.5 * m.drum_e_pa)),
         ("drum E x 2", base, m.replace(drum_e_pa=2 * m.drum_e_pa)),
         ("drum thickness x 0.5", base, m.replace(drum_thickness_m=0.5 * m.drum_thickness_m)),
@@ -126,7 +126,7 @@ def main() -> int:
         "rigid_n_dofs": rigid.n_dofs,
     }
 
-    print("\n-- spec parameters, per Pa of ear-canal pressure (100 dB SPL = 2.828 Pa peak)")
+    print("\n-- default parameters, per Pa of ear-canal pressure (100 dB SPL = 2.828 Pa peak)")
     print(_row("embedded joint (base case)", again))
     print(_row("rigid joint", rr))
     lo, hi = EXPERIMENT_STAPES_M_PER_PA

@@ -1,11 +1,11 @@
-"""Whole cat middle ear, dynamics (spec §4, §5): FE natural frequencies, lumped vs FE per Pa, timings.
+"""Whole cat middle ear, dynamics (docs/dynamics.md §4, docs/ear.md §5.11): FE natural frequencies, lumped vs FE per Pa, timings.
 
 Usage: ``.venv/bin/python benchmarks/ear_dynamics.py [--resolution R] [--json PATH]``
 
 For the rigid-joint variant and the embedded joint (P2, default resolution 1):
 the lowest FE natural frequencies and how much of each mode's kinetic energy
 is in the eardrum, then FE and lumped |umbo|, |stapes| (nm/Pa) and their phases
-at 100 Hz, 1 kHz, the first FE natural frequency and 5 kHz (spec §4 damping,
+at 100 Hz, 1 kHz, the first FE natural frequency and 5 kHz (docs/dynamics.md §4.3 damping,
 :class:`isj.ear.EarMasses`), with the time of one harmonic solve. Nothing is tuned.
 """
 

@@ -1,4 +1,4 @@
-"""Calibration of the lumped model against FE results (spec §3).
+"""Calibration of the lumped model against FE results (docs/lumped.md §3).
 
 ``calibration.doe`` draws designs (moduli in Pa) log-uniformly from the
 calibration space; ``calibration.runner`` evaluates them through a process pool

@@ -1,4 +1,4 @@
-"""Design of experiments over the calibration space of spec §3 (moduli in Pa).
+"""Design of experiments over the calibration space of docs/lumped.md §3.5 (moduli in Pa).
 
 The moduli span one to two decades each, so every design is drawn uniformly in
 log E: a design space is the box of log-moduli, and the unit cube of
@@ -31,10 +31,10 @@ Bounds = tuple[float, float]
 
 @dataclass(frozen=True)
 class DesignSpace:
-    """Box of Young's moduli (Pa), sampled log-uniformly (spec §3).
+    """Box of Young's moduli (Pa), sampled log-uniformly (docs/lumped.md §3.5–3.6).
 
     Each field is ``(low, high)`` in Pa, with 0 < low ≤ high; ``low == high``
-    pins a modulus. Defaults: the plausible ranges of spec §3 (thesis
+    pins a modulus. Defaults: the plausible ranges of docs/lumped.md §3.5 (thesis
     §6.2.3–6.2.5).
 
     Parameters

@@ -1,4 +1,4 @@
-"""The joint angle α and the pedicle angle β (spec §2.4, thesis eq. 7.1–7.2).
+"""The joint angle α and the pedicle angle β (docs/model.md §2.4, thesis eq. 7.1–7.2).
 
 Each rotation about y of a face normal to z is measured from the z
 displacements of two points of that face, in the plane y = 0, at x = ±0.4 w

@@ -218,12 +218,12 @@ def evaluate_modes(design: Mapping, settings: Mapping) -> dict:
     }
 
 
-#: Extra settings of :func:`evaluate_harmonic`: frequencies (Hz) and damping (spec §4).
+#: Extra settings of :func:`evaluate_harmonic`: frequencies (Hz) and damping (docs/dynamics.md §4.3).
 HARMONIC_KEYS = frozenset({"kind", "freq_hz", "rayleigh_a_per_s", "rayleigh_b_s", "loss_factor"})
 
 
 def evaluate_harmonic(design: Mapping, settings: Mapping) -> dict:
-    """Damped harmonic response of one design at a few frequencies (FE, spec §4).
+    """Damped harmonic response of one design at a few frequencies (FE, docs/dynamics.md §4.5).
 
     ``settings`` as for :func:`evaluate_design` plus ``freq_hz`` (list, Hz) and
     the damping ``rayleigh_a_per_s``, ``rayleigh_b_s``, ``loss_factor``

@@ -1,4 +1,4 @@
-"""Mesh convergence of the pedicle as a cantilever against beam theory (spec §2.6).
+"""Mesh convergence of the pedicle as a cantilever against beam theory (docs/model.md §2.6).
 
 The pedicle alone, one end face (z = 0) clamped, a uniform shear traction on the
 other end face (z = L), once in x (bending about the 55 µm side, the hard case)

@@ -1,11 +1,11 @@
-"""Modal analysis and damped harmonic response of the pedicle-and-joint model (spec §4).
+"""Modal analysis and damped harmonic response of the pedicle-and-joint model (docs/dynamics.md §4).
 
 Equation of motion K u + C u̇ + M u = f; at angular frequency ω = 2π f_hz,
 
     (K_d + iωC − ω²M) û = f̂,   K_d = K (1 + iη) with a structural loss factor η,
                                  C = a M + b K (Rayleigh).
 
-Defaults: Rayleigh b = 1e-4 s, a = 0, η = 0 (spec §4). With the complex
+Defaults: Rayleigh b = 1e-4 s, a = 0, η = 0 (docs/dynamics.md §4.3). With the complex
 scalars α = 1 + i(η + ωb) and β = iωa − ω², the dynamic stiffness is
 Z = αK + βM, and Z û = f̂ is (I + c K⁻¹M) û = K⁻¹f̂ / α with c = β/α.
 

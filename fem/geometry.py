@@ -1,6 +1,6 @@
 """Gmsh (OpenCASCADE) builders for the pedicle-and-joint model and the pedicle cantilever.
 
-Spec §2.2 and §2.6. The builders add geometry, physical groups and a mesh-size
+docs/model.md §2.2 and §2.6. The builders add geometry, physical groups and a mesh-size
 field to the *current* gmsh model; meshing and extraction live in :mod:`fem.mesh`.
 
 Gmsh is imported inside the functions only, so that ``import fem.geometry``
@@ -293,7 +293,7 @@ def joint_levels_um(geometry: Geometry) -> dict[str, float]:
 
 
 def build_pedicle_joint(geometry: Geometry, sizes: MeshSizes) -> dict[str, list[int]]:
-    """Add the pedicle-and-joint model (spec §2.2) to the current gmsh model.
+    """Add the pedicle-and-joint model (docs/model.md §2.2) to the current gmsh model.
 
     Boxes centred on the z axis, stacked along z: stapes head, gap, plate,
     pedicle, incus; the capsule is a sleeve of wall ``capsule_thickness_m``
@@ -400,7 +400,7 @@ def build_pedicle_joint(geometry: Geometry, sizes: MeshSizes) -> dict[str, list[
 
 
 def build_cantilever(geometry: Geometry, sizes: MeshSizes) -> dict[str, list[int]]:
-    """Add the pedicle alone as a cantilever box (spec §2.6) to the current gmsh model.
+    """Add the pedicle alone as a cantilever box (docs/model.md §2.6) to the current gmsh model.
 
     Box ``pedicle_x_m`` × ``pedicle_y_m`` × ``pedicle_length_m`` centred on the
     z axis, z from 0 to L. Physical groups: 3-D ``"pedicle"``; 2-D

@@ -3,7 +3,7 @@
 :func:`mesh_pedicle_joint` and :func:`mesh_cantilever` run gmsh (deterministically:
 one thread, fixed algorithm and seed, so equal parameters give byte-identical
 meshes), extract linear tetrahedra, and return a :class:`TetMesh` in metres.
-For the joint model the capsule's free interface (spec §2.2) is cut open after
+For the joint model the capsule's free interface (docs/model.md §2.2) is cut open after
 meshing by duplicating its nodes. Results are cached on disk (:mod:`fem.cache`).
 """
 
@@ -319,7 +319,7 @@ def mesh_pedicle_joint(
     sizes: MeshSizes | None = None,
     cache_dir: str | PathLike | bool | None = None,
 ) -> TetMesh:
-    """Linear tetrahedral mesh of the pedicle-and-joint model (spec §2.2).
+    """Linear tetrahedral mesh of the pedicle-and-joint model (docs/model.md §2.2).
 
     Parameters
     ----------
@@ -369,7 +369,7 @@ def mesh_cantilever(
     sizes: MeshSizes | None = None,
     cache_dir: str | PathLike | bool | None = None,
 ) -> TetMesh:
-    """Linear tetrahedral mesh of the pedicle alone as a cantilever (spec §2.6).
+    """Linear tetrahedral mesh of the pedicle alone as a cantilever (docs/model.md §2.6).
 
     The box ``pedicle_x_m`` × ``pedicle_y_m`` × ``pedicle_length_m``, z from 0 to
     L, element size ``sizes.pedicle_m / R``. Parameters as for

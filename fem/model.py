@@ -32,7 +32,7 @@ from .space import build_space
 class StaticResult:
     """Static response of the pedicle-and-joint model (SI units).
 
-    ``alpha_rad``/``beta_rad`` follow the point-pair definition of spec §2.4
+    ``alpha_rad``/``beta_rad`` follow the point-pair definition of docs/model.md §2.4
     (the one compared with the thesis); ``*_ls_rad`` the least-squares rigid
     rotations of the bodies. ``strain_energy_j`` is per region.
     """
@@ -142,7 +142,7 @@ class ElasticModel:
 
 
 class PedicleJointModel(ElasticModel):
-    """Meshed and assembled pedicle-and-joint model (spec §2).
+    """Meshed and assembled pedicle-and-joint model (docs/model.md §2).
 
     Parameters
     ----------

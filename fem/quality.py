@@ -1,4 +1,4 @@
-"""Mesh quality and matrix bandwidth (spec §2.6, thesis §6.5).
+"""Mesh quality and matrix bandwidth (docs/model.md §2.6, thesis §6.5).
 
 Quality measures, per tetrahedron, vectorised over all elements:
 

@@ -1,4 +1,4 @@
-"""The seven parameter sets of the thesis (spec §2.5) and its base-case result.
+"""The seven parameter sets of the thesis (docs/model.md §2.5) and its base-case result.
 
 Only the base case's α and β were used to fix anything (the default pressure,
 ``isj.design.DEFAULT_PRESSURE_PA``); the other six are predictions.

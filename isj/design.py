@@ -1,4 +1,4 @@
-"""Design parameters of the pedicle-and-joint model (spec §2.1–2.3), in SI units.
+"""Design parameters of the pedicle-and-joint model (docs/model.md §2.1–2.3), in SI units.
 
 Two frozen dataclasses carry everything a model needs: :class:`Geometry` (what
 the mesh depends on) and :class:`Materials` (what only the assembled matrices
@@ -19,7 +19,7 @@ from isj.validate import check_poisson
 #: Region names in region-id order. The id is the index in this tuple.
 REGIONS: tuple[str, ...] = ("stapes", "gap", "plate", "pedicle", "incus", "capsule")
 
-#: Regions made of bone (spec §2.1), for the default density.
+#: Regions made of bone (docs/model.md §2.1), for the default density.
 BONE_REGIONS: frozenset[str] = frozenset({"stapes", "plate", "pedicle", "incus"})
 
 
@@ -36,7 +36,7 @@ def check_positive(name: str, value: float, unit: str) -> None:
 
 @dataclass(frozen=True)
 class Geometry:
-    """Dimensions of the pedicle-and-joint model (spec §2.2), all in metres.
+    """Dimensions of the pedicle-and-joint model (docs/model.md §2.2), all in metres.
 
     z runs along the load path from the clamped face of the stapes head (z = 0)
     to the incus; x is the pedicle's bending direction (its thin side). Stapes
@@ -114,7 +114,7 @@ class Geometry:
 
 @dataclass(frozen=True)
 class Materials:
-    """Young's moduli (Pa), Poisson's ratio and densities (kg/m³), spec §2.1 and §4."""
+    """Young's moduli (Pa), Poisson's ratio and densities (kg/m³), docs/model.md §2.1 and docs/dynamics.md §4.2."""
 
     stapes_e_pa: float = 1e9
     gap_e_pa: float = 10e6
@@ -159,6 +159,6 @@ def check_pressure(pressure_pa: float) -> float:
 #: 800k dofs): β = 12.12 µrad (Richardson, observed order 1.9, two mesh families
 #: agree within 0.1 %) and α = 1.82 ± 0.02 µrad (α converges slowly at the
 #: capsule's bond lines), so α + β = 13.94 ± 0.02 µrad and
-#: p = 29.6 × 13.433 / 13.94 = 28.5 Pa (± 0.2 %). The spec's independent estimate,
+#: p = 29.6 × 13.433 / 13.94 = 28.5 Pa (± 0.2 %). An earlier independent estimate,
 #: 29.6 Pa, came from meshes that did not resolve the singular edges.
 DEFAULT_PRESSURE_PA: float = 28.5

@@ -1,4 +1,4 @@
-"""Lumped dynamics: a second-order model M q̈ + C q̇ + K q = B u, y = C_out q (spec §4).
+"""Lumped dynamics: a second-order model M q̈ + C q̇ + K q = B u, y = C_out q (docs/dynamics.md §4.6).
 
 In the style of pyMOR's ``SecondOrderModel``: the matrices are arrays, batched
 over designs (leading axis), and :meth:`SecondOrderModel.freq_resp` returns
@@ -35,7 +35,7 @@ and the walls' whole span: f1 within 1.2 %, f2 within 3.0 % (training) and 4.6 %
 α = θ_joint and β = ψ_root + φ_tip + ψ_top are point-pair rotations, so the static
 limit reproduces the calibrated static α and β exactly (the stapes head's and the
 shear's deformations leave them unchanged). The mass is consistent: ∫ ρ A (g gᵀ +
-w_x²/12 h hᵀ) dz over the FE regions (densities of spec §4), g(z) and h(z) the x
+w_x²/12 h hᵀ) dz over the FE regions (densities of docs/dynamics.md §4.2), g(z) and h(z) the x
 displacement and rotation per unit coordinate (Hermite cubics along the stapes head
 and the pedicle), by exact Gauss quadrature; the capsule's mass is left out. Damping
 is the FE model's: Rayleigh C = a M + b K and/or a structural loss factor, K(1 + iη).

@@ -1,4 +1,4 @@
-"""A lumped cat ossicular chain (spec §5 anatomy, spec §4 dynamics): umbo and stapes per Pa.
+"""A lumped cat ossicular chain (docs/ear.md §5.10): umbo and stapes per Pa.
 
 Second-order model M q̈ + E q̇ + K(1 + iη) q = B p, y = C q (``SecondOrderModel``
 of :mod:`lumped.dynamics`), input p the ear-canal pressure (Pa), SI units.
@@ -39,7 +39,7 @@ onto the body's six dofs: a 6-vector of load per Pa (the effective area), a
 6 × 6 stiffness and mass (:class:`EardrumParameters`, measured on the FE drum by
 :func:`fem.ear.lumped_params.eardrum_parameters`). The stapes's footplate is rigid,
 on the annular ligament + cochlear load: ``annular_springs`` point springs on its
-elliptical outline (11 N/m out of plane, 9.9 N/m in plane, spec §5), as the FE ear.
+elliptical outline (11 N/m out of plane, 9.9 N/m in plane, docs/ear.md §5.5), as the FE ear.
 
 Masses (estimates unless stated): eardrum from the FE shell's consistent mass
 (density 1200 kg/m³, an estimate; 2.07 mg over the drum's surface);
@@ -48,7 +48,7 @@ reference point, radius of gyration 1.0 mm (estimate); stapes 0.5 mg (estimate),
 centroid 0.3 of the crura's height above the footplate, radius of gyration 0.4 mm
 (estimate); the pedicle-and-joint regions (micrograms) are neglected.
 
-Damping as :mod:`lumped.dynamics`: Rayleigh E = a M + b K (spec §4 defaults
+Damping as :mod:`lumped.dynamics`: Rayleigh E = a M + b K (docs/dynamics.md §4.3 defaults
 a = 0, b = 1e-4 s) and/or a loss factor η.
 
 Outputs per Pa (:data:`OUTPUTS`): the umbo's displacement along its static
@@ -270,7 +270,7 @@ def ear_model(
         its densities are not read: the drum's mass is ``eardrum``'s, the footplate is in ``stapes_kg``)
     rigid_joint : no α, β coordinates (a rigid incus–stapes connection)
     body : "rigid" (six dofs) or "rotation" (one rotation about the nominal axis)
-    rayleigh_a_per_s, rayleigh_b_s, loss_factor : damping (1/s, s, dimensionless), spec §4
+    rayleigh_a_per_s, rayleigh_b_s, loss_factor : damping (1/s, s, dimensionless), docs/dynamics.md §4.3
     **moduli : the joint model's moduli (Pa), floats or broadcastable arrays (``lumped.model.MODULI``)
     """
     g = geometry or EarGeometry()

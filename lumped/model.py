@@ -1,4 +1,4 @@
-"""Beam-and-spring reduced model of the pedicle and the joint (spec §3), static.
+"""Beam-and-spring reduced model of the pedicle and the joint (docs/lumped.md §3), static.
 
 The load path along z: the pressure on the incus's −x face makes a force
 P = p · A_face at the face centroid z_load. It bends the pedicle (a beam

@@ -78,7 +78,7 @@ class TrendsConfig:
 
 @dataclass(frozen=True)
 class ConvergenceConfig:
-    """The pedicle cantilever against Timoshenko (spec 2.6): orders and load directions."""
+    """The pedicle cantilever against Timoshenko (docs/model.md §2.6): orders and load directions."""
 
     orders: tuple[int, ...] = (1, 2)
     directions: tuple[str, ...] = ("x", "y")
@@ -100,7 +100,7 @@ class CalibrationConfig:
 
 @dataclass(frozen=True)
 class SweepConfig:
-    """Frequency response (spec 4): band, damping, FE spot checks, modes."""
+    """Frequency response (docs/dynamics.md §4): band, damping, FE spot checks, modes."""
 
     fmin_hz: float = 100.0
     fmax_hz: float = 40e3
@@ -114,9 +114,9 @@ class SweepConfig:
 
 @dataclass(frozen=True)
 class ReportConfig:
-    """Everything ``isj report`` computes from; ``geometry`` in metres (spec 2.2).
+    """Everything ``isj report`` computes from; ``geometry`` in metres (docs/model.md §2.2).
 
-    ``ear`` holds the whole ear's eardrum, footplate and spring constants (spec 5,
+    ``ear`` holds the whole ear's eardrum, footplate and spring constants (docs/ear.md §5.8,
     :class:`isj.ear.EarMaterials`); its anatomy is :class:`isj.ear.EarGeometry`'s default.
     """
 

@@ -122,7 +122,7 @@ def write_base_vtu(ctx: Context, path: Path) -> Path:
 
 
 def cases_step(ctx: Context) -> tuple[dict, dict]:
-    """The seven thesis cases (spec 2.5) from FE and lumped models, with the thesis's base case."""
+    """The seven thesis cases (docs/model.md §2.5) from FE and lumped models, with the thesis's base case."""
     base = ctx.base_design()
     designs = [
         base | {"pedicle_e_pa": c.pedicle_e_pa, "gap_e_pa": c.gap_e_pa, "capsule_e_pa": c.capsule_e_pa}
@@ -190,7 +190,7 @@ def trends_step(ctx: Context) -> tuple[dict, dict]:
 
 
 def convergence_step(ctx: Context) -> tuple[dict, dict]:
-    """The pedicle cantilever (spec 2.6): maximum displacement against tets, P1 and P2, x and y."""
+    """The pedicle cantilever (docs/model.md §2.6): maximum displacement against tets, P1 and P2, x and y."""
     from isj.fem.convergence import cantilever_study
 
     c = ctx.config.convergence
@@ -295,7 +295,7 @@ def sweep_step(ctx: Context) -> tuple[dict, dict]:
 
 
 def ear_step(ctx: Context) -> tuple[dict, dict]:
-    """The whole cat middle ear (spec 5) with the joint model inside: static response per Pa."""
+    """The whole cat middle ear (docs/ear.md §5) with the joint model inside: static response per Pa."""
     from isj.fem.batch import shared_model
     from isj.fem.ear.middle_ear import MiddleEarModel
 

@@ -282,7 +282,7 @@ def test_cli_ear_solve_json_and_bad_input(capsys):
     assert err.startswith("isj: error:") and "--drum-e" in err and "\n" not in err
 
 
-# --------------------------------------------------------------------------- dynamics (spec §4)
+# --------------------------------------------------------------------------- dynamics (docs/ear.md §5.11)
 #
 # Measured on the default anatomy (rigid joint; the coarse embedded joint agrees to 0.2 %):
 # the lowest FE natural frequencies are eardrum modes, 1656, 1902, 2017 Hz (98, 99, 93 % of

@@ -38,8 +38,8 @@ def _projected_areas(mesh):
 
 
 def test_cat_defaults_follow_the_spec():
-    assert (PARS_TENSA.e_pa, PARS_TENSA.nu, PARS_TENSA.thickness_m) == (20e6, 0.3, 40e-6)  # spec §5
-    assert CAT.normalized_radius == 1.19  # spec §5
+    assert (PARS_TENSA.e_pa, PARS_TENSA.nu, PARS_TENSA.thickness_m) == (20e6, 0.3, 40e-6)  # docs/ear.md §5.2
+    assert CAT.normalized_radius == 1.19  # docs/ear.md §5.2
     assert CAT.outline_area_m2 == pytest.approx(0.4e-4, rel=0.01)  # "about 0.4 cm²": 40.2 mm²
 
 
@@ -127,7 +127,7 @@ def test_pressure_with_ring_and_manubrium_clamped_gives_linear_finite_displaceme
     # Measured 1.700e-7 m/Pa (170 nm/Pa), medially, in the inferior part between umbo and ring.
     assert 1.5e-7 < disp[worst] < 1.9e-7
     assert u1[worst, 2] < 0 and mesh.nodes_m[worst, 0] < CAT.umbo_x_m
-    u100db = _clamped_solve(mesh, 2.828)  # 100 dB SPL peak (spec §5)
+    u100db = _clamped_solve(mesh, 2.828)  # 100 dB SPL peak (docs/ear.md §5.6)
     assert np.abs(u100db - 2.828 * u1).max() < 1e-10 * np.abs(u100db).max()
 
 

@@ -11,7 +11,7 @@ Tolerances are measured, with margin, not tuned (default anatomy, per Pa):
   stapes, β) and 10 % (α);
 - the one-dof body (rotation about the nominal axis): umbo −16.7 %, stapes −13.9 %: the
   FE body's axis tilts and moves; documented, not a pass.
-- frequency response, rigid joint, spec §4 damping (b = 1e-4 s), same masses
+- frequency response, rigid joint, docs/dynamics.md §4.3 damping (b = 1e-4 s), same masses
   (:class:`isj.ear.EarMasses`), lumped / FE − 1 for |umbo|, |stapes| and the phase difference:
   100, 300 Hz: < 1e-4, 0.00°; 800 Hz: −0.16 %, +0.18°; 1.2 kHz: +0.37 %, +0.97°;
   1656 Hz (FE f1): +4.6 %, +1.4°; 2 kHz: +8.1 %, −0.6°; 3 kHz: +4.4 %, −6.9°;

@@ -1,4 +1,4 @@
-"""Gmsh meshes of the joint model and the cantilever (spec §2.2, §2.6), and the mesh cache."""
+"""Gmsh meshes of the joint model and the cantilever (docs/model.md §2.2 and §2.6), and the mesh cache."""
 
 import dataclasses
 

@@ -37,7 +37,7 @@ def test_clamped_face_does_not_move_and_load_is_p_times_area(coarse_model):
 
 
 def test_point_pairs_agree_with_least_squares_rotations(coarse_model):
-    """Spec 2.4: with the default geometry the two definitions agree within a few per cent."""
+    """docs/model.md §2.4: with the default geometry the two definitions agree within a few per cent."""
     r = coarse_model.solve()
     assert r.alpha_rad == pytest.approx(r.alpha_ls_rad, rel=0.05)
     assert r.beta_rad == pytest.approx(r.beta_ls_rad, rel=0.05)

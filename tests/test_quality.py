@@ -1,4 +1,4 @@
-"""Element quality measures and bandwidth (spec §2.6)."""
+"""Element quality measures and bandwidth (docs/model.md §2.6)."""
 
 import numpy as np
 import pytest

@@ -1,4 +1,4 @@
-"""Whole-ear building blocks (spec §5): a flat-facet thin-shell element and the cat eardrum.
+"""Whole-ear building blocks (docs/ear.md §5.2): a flat-facet thin-shell element and the cat eardrum.
 
 - :mod:`fem.ear.shell`: material, element matrices (Allman membrane + DKT
   bending, 6 dofs a node), vectorised assembly of stiffness, mass and loads;

@@ -1,10 +1,10 @@
-"""Dynamics of the whole cat middle ear (spec §4, §5): mass, harmonic response per Pa, natural frequencies.
+"""Dynamics of the whole cat middle ear (docs/dynamics.md §4, docs/ear.md §5.11): mass, harmonic response per Pa, natural frequencies.
 
 On the reduced system of :class:`fem.ear.middle_ear.MiddleEarModel` (u = T q):
 
     (K_r (1 + iη) + iω (a M_r + b K_r) − ω² M_r) q̂ = f_r p̂,   K_r = Tᵀ K T, M_r = Tᵀ M T,
 
-spec §4's damping (Rayleigh a = 0, b = 1e-4 s by default; loss factor η = 0), f_r
+the damping of docs/dynamics.md §4.3 (Rayleigh a = 0, b = 1e-4 s by default; loss factor η = 0), f_r
 the reduced load of 1 Pa of ear-canal pressure.
 
 Mass data (:class:`isj.ear.EarMasses`, the one place the lumped ear
@@ -12,7 +12,7 @@ Mass data (:class:`isj.ear.EarMasses`, the one place the lumped ear
 
 - eardrum: the shell's consistent mass, density 1200 kg/m³ (rotary inertia lumped,
   :func:`fem.ear.shell.mass_matrix`), as the lumped ear's condensed drum;
-- footplate: the shell's consistent mass, bone, 2000 kg/m³ (spec §4), centre 20 µm
+- footplate: the shell's consistent mass, bone, 2000 kg/m³ (docs/dynamics.md §4.2), centre 20 µm
   and rim 200 µm thick;
 - malleus + incus: 6 mg, isotropic radius of gyration 1.0 mm about its centroid (the
   body's reference point by default), a 6 × 6 rigid-body mass at the reference point:
@@ -60,7 +60,7 @@ OUTPUTS = ("umbo_m", "stapes_m", "alpha_rad", "beta_rad")
 
 @dataclass(frozen=True)
 class EarDamping(Damping):
-    """The isolated model's damping law (spec §4): Rayleigh a (1/s), b (s), loss factor η."""
+    """The isolated model's damping law (docs/dynamics.md §4.3): Rayleigh a (1/s), b (s), loss factor η."""
 
     @property
     def damped(self) -> bool:
@@ -282,8 +282,8 @@ def harmonic(
     model : :class:`fem.ear.middle_ear.MiddleEarModel`
     freq_hz : frequencies (Hz), >= 0
     materials : the embedded joint's moduli and densities (ignored by the rigid joint)
-    ear_materials : eardrum, footplate and springs (spec §5)
-    damping : :class:`EarDamping` (default spec §4: Rayleigh b = 1e-4 s)
+    ear_materials : eardrum, footplate and springs (docs/ear.md §5.8)
+    damping : :class:`EarDamping` (default docs/dynamics.md §4.3: Rayleigh b = 1e-4 s)
     masses : :class:`isj.ear.EarMasses` (estimates)
     keep_displacement : keep the full complex dof vectors (n_freq, n_full)
 

@@ -1,6 +1,6 @@
-"""Parametric pars tensa of the cat eardrum (spec §5) and its triangle mesh.
+"""Parametric pars tensa of the cat eardrum (docs/ear.md §5.2) and its triangle mesh.
 
-Shape (Funnell & Laszlo 1978, as summarised in spec §5): a cone with its apex
+Shape (Funnell & Laszlo 1978, as summarised in docs/ear.md §5.2): a cone with its apex
 at the umbo, pointing medially, whose generators are circular arcs running
 from the manubrium to the tympanic ring, with a normalised radius of curvature
 of 1.19. Here "normalised" means the arc's radius divided by its chord (the
@@ -38,8 +38,8 @@ from isj.ear import EarGeometry
 
 from .shell import ShellMaterial, pressure_load
 
-#: Pars tensa of the cat (spec §5: E = 20 MPa, ν = 0.3, thickness 40 µm). The density
-#: is not in the spec: 1200 kg/m³ is an estimate (soft collagenous tissue).
+#: Pars tensa of the cat (docs/ear.md §5.2: E = 20 MPa, ν = 0.3, thickness 40 µm). The density
+#: is not in the thesis: 1200 kg/m³ is an estimate (soft collagenous tissue).
 PARS_TENSA = ShellMaterial(e_pa=20e6, nu=0.3, thickness_m=40e-6, density_kg_m3=1200.0)
 
 
@@ -53,14 +53,14 @@ class EardrumGeometry:
     Parameters
     ----------
     semi_axis_manubrium_m : half-axis a of the elliptical ring along the manubrium (x).
-        Estimate: 4.0 mm, chosen with the next so that π a b = 40.2 mm², spec §5's
+        Estimate: 4.0 mm, chosen with the next so that π a b = 40.2 mm², docs/ear.md §5.2's
         "area about 0.4 cm²" (itself an estimate).
     semi_axis_transverse_m : half-axis b across the manubrium (y). Estimate: 3.2 mm (a/b = 1.25).
     cone_depth_m : depth of the umbo below the plane of the ring. Estimate: 1.5 mm,
         ≈ 0.2 × the mean ring diameter, the depth-to-diameter ratio of gerbil
         (0.77 mm / 4.1 mm) and human (≈ 2 mm / 9 mm) eardrums.
     normalized_radius : radius of curvature of each generator divided by its chord:
-        1.19 (spec §5). Must be > 0.5; ``math.inf`` gives straight generators.
+        1.19 (docs/ear.md §5.2). Must be > 0.5; ``math.inf`` gives straight generators.
     umbo_x_m : x of the umbo's projection. Estimate: 0, the centre of the outline.
     manubrium_gap_m : distance in x from the manubrium's superior tip to the ring.
         Estimate: 0.4 mm.

@@ -1,4 +1,4 @@
-"""The stapes footplate (spec §5): an elliptical shell with a thick rim, and its annular springs.
+"""The stapes footplate (docs/ear.md §5.5): an elliptical shell with a thick rim, and its annular springs.
 
 The footplate is a flat elliptical plate of the existing shell element
 (:mod:`fem.ear.shell`), E = 20 GPa, 20 µm thick in the centre and 200 µm in
@@ -12,7 +12,7 @@ Node sets:
 - ``"centre"``: the centre node (the footplate displacement is read there);
 - ``"outline"``: the last ring, ``annular_springs`` equally spaced nodes (in the
   ellipse's parametric angle) carrying the annular ligament + cochlear load
-  springs (spec §5: 40 out-of-plane springs of 11 N/m, in-plane springs of 9.9 N/m);
+  springs (docs/ear.md §5.5: 40 out-of-plane springs of 11 N/m, in-plane springs of 9.9 N/m);
 - ``"crura"``: the ring at the inner edge of the rim, where the crura meet the
   footplate. The whole-ear model ties all of it to the stapes superstructure
   (a band of many nodes, never a few corner nodes, which gave the thesis
@@ -34,7 +34,7 @@ from isj.ear import EarGeometry, EarMaterials
 from .meshes import zip_rings
 from .shell import NDOF, ShellMaterial, stiffness_matrix
 
-#: Bone density of the footplate (kg/m³): an estimate, as for the ossicles (spec §2.1); statics ignore it.
+#: Bone density of the footplate (kg/m³): an estimate, as for the ossicles (docs/model.md §2.1); statics ignore it.
 FOOTPLATE_DENSITY_KG_M3 = 2000.0
 
 

@@ -1,4 +1,4 @@
-"""The eardrum's lumped parameters, measured on the FE pars tensa (spec §5), for ``lumped.ear``.
+"""The eardrum's lumped parameters, measured on the FE pars tensa (docs/ear.md §5.2), for ``lumped.ear``.
 
 The manubrium, tied to the malleus–incus body, moves rigidly with it, and the
 eardrum's displacement splits exactly (a Craig–Bampton split with constraint
