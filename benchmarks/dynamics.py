@@ -1,4 +1,4 @@
-"""Dynamics: lumped sweep speed, FE harmonic cost, and lumped against FE (docs/dynamics.md §4.9, docs/performance.md §8.3).
+"""Dynamics: lumped sweep speed, FE harmonic cost, and lumped against FE (docs/performance.md §8.3).
 
 Run:  .venv/bin/python benchmarks/dynamics.py
 

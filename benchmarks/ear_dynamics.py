@@ -1,4 +1,4 @@
-"""Whole cat middle ear, dynamics (docs/dynamics.md §4, docs/ear.md §5.11): FE natural frequencies, lumped vs FE per Pa, timings.
+"""Whole cat middle ear, dynamics (docs/ear.md §5.11): FE natural frequencies, lumped vs FE per Pa, timings.
 
 Usage: ``.venv/bin/python benchmarks/ear_dynamics.py [--resolution R] [--json PATH]``
 

@@ -34,7 +34,8 @@ from isj.ear import EarGeometry, EarMaterials
 from .meshes import zip_rings
 from .shell import NDOF, ShellMaterial, stiffness_matrix
 
-#: Bone density of the footplate (kg/m³): an estimate, as for the ossicles (docs/model.md §2.1); statics ignore it.
+#: Bone density of the footplate (kg/m³): an estimate, as for the ossicles (docs/model.md §2.1);
+#: statics ignore it.
 FOOTPLATE_DENSITY_KG_M3 = 2000.0
 
 
