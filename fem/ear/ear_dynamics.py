@@ -1,4 +1,4 @@
-"""Dynamics of the whole cat middle ear (docs/ear.md §5.11): mass, harmonic response per Pa, natural frequencies.
+"""Dynamics of the whole cat middle ear (docs/ear.md §5.11): mass, harmonic response, natural frequencies.
 
 On the reduced system of :class:`fem.ear.middle_ear.MiddleEarModel` (u = T q):
 
