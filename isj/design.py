@@ -114,7 +114,7 @@ class Geometry:
 
 @dataclass(frozen=True)
 class Materials:
-    """Young's moduli (Pa), Poisson's ratio, densities (kg/m³): docs/model.md §2.1, dynamics.md §4.2."""
+    """Young's moduli (Pa), ν and densities (kg/m³): docs/model.md §2.1 and docs/dynamics.md §4.2."""
 
     stapes_e_pa: float = 1e9
     gap_e_pa: float = 10e6
