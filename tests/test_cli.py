@@ -146,3 +146,107 @@ def test_sweep_writes_csv_npz_plot_and_guards(capsys, tmp_path):
         capsys, ["sweep", "--fmin-hz", "5000", "--fmax-hz", "100", "--out", str(tmp_path / "x")]
     )
     assert code == 2 and "--fmin-hz" in err and not (tmp_path / "x").exists()
+
+
+# -- the thin command line: one module per command group, shared workflows, one-line messages
+
+
+def test_entry_points_are_one_main():
+    import isj._cli
+    import isj.cli
+
+    assert isj.cli.main is isj._cli.main
+    from isj._cli import _main
+
+    assert [m.__name__.rsplit(".", 1)[-1] for m in _main.COMMANDS] == [
+        "fem", "lumped", "calibrate", "explore", "sweep", "report", "ear"
+    ]  # fmt: skip
+
+
+def test_python_dash_m_isj(tmp_path):
+    import subprocess
+    import sys
+
+    def isj(*argv):
+        cmd = [sys.executable, "-m", "isj", *argv]
+        return subprocess.run(cmd, capture_output=True, text=True, cwd=tmp_path)
+
+    r = isj("--version")
+    assert r.returncode == 0 and r.stdout.startswith("isj ")
+    r = isj("fem", "solve", "--nu", "0.7")
+    assert r.returncode == 2 and r.stderr.strip().count("\n") == 0 and "--nu" in r.stderr
+
+
+def test_out_of_domain_warns_in_one_line_every_time(capsys):
+    from isj.lumped.artifact import default_calibration
+
+    hi = default_calibration().domain["gap_e_pa"][1]
+    for _ in range(2):  # a second run in the same process warns again
+        code, out, err = run(capsys, ["lumped", "solve", "--json", "--gap-e", f"{3 * hi:g}"])
+        assert code == 0 and json.loads(out)["alpha_rad"] > 0
+        lines = err.strip().splitlines()
+        assert len(lines) == 1 and lines[0].startswith("isj: warning: gap_e_pa outside the calibrated domain")
+
+
+def test_lumped_solve_is_the_shared_lumped_static(capsys):
+    from isj.calibration.checks import lumped_static
+    from isj.lumped.artifact import default_calibration
+
+    from isj.design import Materials
+
+    code, out, _ = run(capsys, ["lumped", "solve", "--json", "--pedicle-e", "8e9", "--pressure", "50"])
+    d = json.loads(out)
+    m = Materials(pedicle_e_pa=8e9)
+    design = {f"{r}_e_pa": m.youngs(r) for r in ("pedicle", "gap")}
+    ref = lumped_static(default_calibration(), [design], None, 50.0)
+    assert code == 0 and d["alpha_rad"] == float(ref.alpha_rad[0]) and d["beta_rad"] == float(ref.beta_rad[0])
+    assert d["beta_over_alpha"] == pytest.approx(d["beta_rad"] / d["alpha_rad"], rel=1e-15)
+
+
+def test_explore_grid_without_spot_checks(capsys):
+    code, out, err = run(
+        capsys,
+        ["explore", "--gap-e", "2e6:4e7", "--capsule-e", "2e7:2e8", "--n", "4", "--spot-checks", "0"]
+        + ["--json"],
+    )
+    assert code == 0 and err == ""
+    d = json.loads(out)
+    assert d["n_designs"] == 16 and d["spot_checks"] == [] and d["passed"] and d["outside_domain"] == 0
+    assert 0 < d["alpha_rad_range"][0] < d["alpha_rad_range"][1]
+    # a stiffer gap and capsule turn the joint less: the softest corner gives the largest alpha
+    code, out, _ = run(capsys, ["lumped", "solve", "--json", "--gap-e", "2e6", "--capsule-e", "2e7"])
+    assert json.loads(out)["alpha_rad"] == pytest.approx(d["alpha_rad_range"][1], rel=1e-12)
+
+
+@pytest.mark.parametrize(
+    "argv, word",
+    [
+        (["explore", "--gap-e", "1e6:5e7", "--capsule-e", "1e7:3e8", "--n", "100000"], "--n"),
+        (["explore", "--gap-e", "1e6:5e7", "--sample", "100000000"], "--sample"),
+        (["explore", "--gap-e", "1e6:5e7", "--seed", "-1"], "--seed"),
+        (["explore", "--gap-e", "5e7:1e6"], "--gap-e"),
+        (["sweep", "--fmin-hz", "100", "--fmax-hz", "100"], "--fmin-hz"),
+        (["sweep", "--n", "1"], "--n"),
+        (["ear", "sweep", "--fe-checks", "51"], "--fe-checks"),
+        (["calibrate", "--seed", "-2"], "--seed"),
+    ],
+)
+def test_refused_before_computing(capsys, tmp_path, monkeypatch, argv, word):
+    monkeypatch.chdir(tmp_path)
+    code, out, err = run(capsys, argv)
+    assert code == 2 and out == ""
+    assert len(err.strip().splitlines()) == 1 and word in err
+    assert not list(tmp_path.iterdir())
+
+
+def test_no_module_over_500_lines():
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parent.parent
+    sizes = {
+        str(f.relative_to(root)): len(f.read_text().splitlines())
+        for pkg in ("isj", "fem", "lumped", "calibration", "reports")
+        for f in (root / pkg).rglob("*.py")
+    }
+    assert {k: v for k, v in sizes.items() if v > 500} == {}
+    assert sizes["isj/cli.py"] < 30  # the entry point only re-exports main

@@ -109,3 +109,32 @@ def test_cli_bad_input_is_one_line_exit_2(capsys, argv, word):
     out, err = capsys.readouterr()
     assert out == "" and word in err and len(err.strip().splitlines()) == 1
     assert "Traceback" not in err
+
+
+def test_cli_bad_files_are_one_line_exit_2(capsys, tmp_path, monkeypatch):
+    from isj.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    bad = tmp_path / "bad.json"
+    bad.write_text("{not json")
+    for argv, word in [
+        (["lumped", "solve", "--calibration", str(bad)], "bad.json"),  # CorruptCalibration
+        (["report", "--set", "design.shoe_size_m=1", "--out", "r"], "shoe_size_m"),  # ConfigError
+    ]:
+        assert main(argv) == 2
+        out, err = capsys.readouterr()
+        assert out == "" and word in err and len(err.strip().splitlines()) == 1
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.json"]
+
+
+def test_cli_non_isj_value_error_is_not_hidden(monkeypatch):
+    """A ValueError that is no IsjError is a bug, not bad input: main lets its traceback through."""
+    from isj._cli import lumped
+    from isj.cli import main
+
+    def broken(args):
+        raise ValueError("a bug")
+
+    monkeypatch.setattr(lumped, "solve", broken)
+    with pytest.raises(ValueError, match="a bug"):
+        main(["lumped", "solve"])
