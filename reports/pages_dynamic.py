@@ -28,7 +28,8 @@ def convergence_page(fig, conv: dict):
             )
     text_block(fig, 0.08, 0.48, "\n".join(lines), fontsize=7)
     note = (
-        "The pedicle alone as a cantilever (spec 2.6): one end clamped, a 1 uN shear force on the other. "
+        "The pedicle alone as a cantilever (docs/model.md §2.6): one end clamped, a 1 uN shear force "
+        "on the other. "
         "P1 tetrahedra lock in bending and converge slowly; P2 converge fast. With nu = 0.3 the 3-D solution "
         "settles a few per cent from Timoshenko's beam value, because the clamp also stops the Poisson "
         "contraction of a short beam (L/h = 1.5 in y); with nu = 0 the mean tip deflection matches within "
@@ -229,14 +230,14 @@ def ear_page(fig, ear: dict, arrays: dict, cases: dict):
     beta_ear = [by_case[n]["beta_rad_per_pa"] for n in names]
     beta_iso = [iso[n]["beta_rad"] for n in names]
     note = (
-        "The whole ear (spec 5): the pars tensa as a flat-facet shell "
+        "The whole ear (docs/ear.md §5): the pars tensa as a flat-facet shell "
         f"(E = {m['drum_e_pa'] / 1e6:g} MPa, {m['drum_thickness_m'] * 1e6:g} um), clamped at the ring; "
         "malleus and incus as one rigid body on the anterior mallear and posterior incudal ligament "
         "springs; the stapes footplate as a shell with a thick rim on 40 annular-ligament and "
         "cochlear-load springs, its superstructure rigid and tied to the whole inner rim; the 3-D joint "
         "model between the long process and the stapes head, tied without penalties. "
         "All anatomical positions are estimates (isj/ear.py); the thesis's own whole-ear displacements are "
-        "not in the spec, so they are not shown. Across the seven cases beta changes by "
+        "not available to isj, so they are not shown. Across the seven cases beta changes by "
         f"{spread(beta_ear)} from the base case inside the ear, against {spread(beta_iso)} in the isolated "
         "model, which is loaded by a fixed pressure on the incus."
     )

@@ -34,8 +34,9 @@ def title_page(fig, config, provenance: dict, model: dict):
     text_block(fig, 0.07, 0.72, "\n\n".join(col[:half]), fontsize=7)
     text_block(fig, 0.52, 0.72, "\n\n".join(col[half:]), fontsize=7)
     note = (
-        "Spec: ../shared/spec/MODEL.md. alpha: rotation of the stapes head relative to the lenticular "
-        "plate (the joint); beta: rotation of the plate relative to the incus (the pedicle), spec 2.4. "
+        "Definitions: docs/ in the isj repository. alpha: rotation of the stapes head relative to "
+        "the lenticular plate (the joint); beta: rotation of the plate relative to the incus (the pedicle), "
+        "docs/model.md §2.4. "
         "FE: P2 tetrahedra, graded towards the singular edges; on the default mesh alpha and beta are "
         "about 2.5 % below their mesh-converged values. Lumped: the calibrated beam-and-spring model "
         "(lumped/). Every number in this report is also in data/ as JSON or CSV."
