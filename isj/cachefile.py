@@ -150,8 +150,15 @@ def read_npz_entry(path: str | os.PathLike) -> tuple[dict[str, np.ndarray], str]
         checksum that does not match the arrays.
     """
     try:
-        with np.load(path, allow_pickle=False) as z:
-            arrays = {k: z[k] for k in z.files}
+        # opened here, not by np.load, so that the file is closed whatever np.load raises
+        with open(path, "rb") as f:
+            if f.read(4) != b"PK\x03\x04":  # an NPZ is a zip archive; anything else np.load reads as a pickle
+                raise DamagedEntry("not an NPZ archive")
+            f.seek(0)
+            with np.load(f, allow_pickle=False) as z:
+                arrays = {k: z[k] for k in z.files}
+    except DamagedEntry:
+        raise
     except Exception as exc:  # BadZipFile, zlib.error, EOFError, ValueError, OSError: all mean damaged
         raise DamagedEntry(_one_line(exc)) from exc
     stored = arrays.pop(_NPZ_CHECKSUM, None)
