@@ -100,7 +100,10 @@ class EarGeometry:
     joint_x_direction : direction of the joint model's x axis (the pedicle's bending
         direction): inferior, (−1, 0, 0). Must be perpendicular to ``joint_z_direction``.
     joint_length_m : joint model's length along its z axis, stapes-head face to the incus's
-        far face (m): 655 µm, :attr:`isj.design.Geometry.z_top` of the default geometry.
+        far face (m): 655 µm, :attr:`isj.design.Geometry.z_top` of the default geometry. With
+        a joint model of another stack height, the ear models take it from the joint's
+        geometry (:meth:`for_joint`): the long process's end stays where it is, and the stapes
+        head and footplate move along the piston direction.
     crura_height_m : distance along the piston direction from the stapes-head face (joint
         model z = 0) to the footplate's mid-plane. Estimate: 1.0 mm (cat stapes ≈ 1.1 mm tall).
     footplate_area_m2 : area of the footplate's elliptical outline: 1.26 mm² (spec §5).
@@ -247,6 +250,18 @@ class EarGeometry:
             return math.hypot(*_cross(r, d))
 
         return dist(self.umbo_m) / dist(self.footplate_centre_m)
+
+    def for_joint(self, joint_geometry: Geometry) -> EarGeometry:
+        """This anatomy with the joint length of ``joint_geometry`` (its :attr:`~Geometry.z_top`, m).
+
+        Any geometry the joint model accepts then fits the ear: the ear holds the joint by
+        its two end faces only, so its length is the one dimension the ear must know.
+        Returns ``self`` when the length already agrees (to 1e-9 relative).
+        """
+        z_top = joint_geometry.z_top
+        if abs(z_top - self.joint_length_m) <= 1e-9 * z_top:
+            return self
+        return dataclasses.replace(self, joint_length_m=z_top)
 
     def replace(self, **changes) -> EarGeometry:
         return dataclasses.replace(self, **changes)

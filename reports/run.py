@@ -1,6 +1,10 @@
 """``isj report``: run every step (cached), write the data files, then the PDF.
 
-The output folder gets, each written atomically:
+The report is written into a temporary sibling folder (``.<name>.<random>.partial``)
+and moved into place only when it is complete, so a folder named by ``--out``
+holds one whole report or the previous one, never a mix of two configurations
+(an interrupted run leaves the previous report untouched; the step cache lets
+the next run start again at the first unfinished step). The output folder gets:
 
 - ``report.pdf``;
 - ``data/<step>.json`` (every number of a section) and ``data/*.csv`` (tables);
@@ -8,24 +12,108 @@ The output folder gets, each written atomically:
 - ``base.vtu``, the base design for ParaView.
 
 Bad configuration is rejected by :func:`reports.config.load_config` before
-this module creates anything.
+this module creates anything; so is an output folder that holds anything but
+a previous report (:func:`check_out_dir`), since it is replaced as a whole.
 """
 
 from __future__ import annotations
 
 import json
+import os
+import secrets
+import shutil
 import sys
+import tempfile
 import time
 from pathlib import Path
 
 from isj.atomic import atomic_write_json, atomic_write_text
 from isj.caches import fe_cache_dir
+from isj.errors import InvalidParameter
 
 from .config import ReportConfig
 from .steps import STEPS, Context, step_inputs
 from .store import StepStore, default_cache_dir, step_key
 
 _fe_cache_dir = fe_cache_dir  # the default FE result cache, shared with the CLI and the benchmarks
+
+#: What a report folder holds; an existing ``--out`` folder with anything else is refused.
+REPORT_ENTRIES = frozenset({"report.pdf", "data", "resolved_config.toml", "run.json", "base.vtu"})
+
+
+def check_out_dir(out_dir: str | os.PathLike) -> Path:
+    """The output folder as an absolute path, if a finished report may replace it.
+
+    It may be new, empty, or a previous report (only :data:`REPORT_ENTRIES`): the
+    report replaces the whole folder, so a folder with other files, a file, or the
+    current folder (or one above it) is refused.
+
+    Raises
+    ------
+    InvalidParameter
+        One line naming ``out_dir`` and what it must be.
+    """
+    text = str(out_dir)
+    out = Path(os.path.abspath(text)) if text.strip() else None
+    if out is None or out.parent == out:
+        raise InvalidParameter(f"out_dir = {text!r}: must name a folder (not empty, not a root)")
+    cwd = Path.cwd().absolute()
+    if out == cwd or out in cwd.parents:
+        raise InvalidParameter(f"out_dir = {text!r}: must not be the current folder or one above it")
+    if out.exists() or out.is_symlink():
+        if out.is_symlink() or not out.is_dir():
+            raise InvalidParameter(f"out_dir = {text!r}: exists and is not a folder")
+        other = sorted(p.name for p in out.iterdir() if p.name not in REPORT_ENTRIES)
+        if other:
+            raise InvalidParameter(
+                f"out_dir = {text!r}: holds {other[0]!r}, which is not part of a report; "
+                "must be a new or empty folder or a previous report"
+            )
+    return out
+
+
+def _staging_dir(out: Path) -> Path:
+    """A new empty sibling of ``out`` to write the report into (permissions as ``mkdir`` gives)."""
+    out.parent.mkdir(parents=True, exist_ok=True)
+    while True:
+        staging = out.parent / f".{out.name}.{secrets.token_hex(4)}.partial"
+        try:
+            staging.mkdir()  # not mkdtemp: its 0700 would become the report folder's mode
+            return staging
+        except FileExistsError:  # pragma: no cover - 32 random bits
+            continue
+
+
+def _swap_in(staging: Path, out: Path) -> None:
+    """Replace ``out`` (if any) by the finished ``staging`` folder: two renames, old removed last."""
+    old = None
+    if out.exists():
+        old = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".old", dir=out.parent))
+        os.replace(out, old / out.name)  # aside, inside a folder of its own
+    try:
+        os.replace(staging, out)
+    except BaseException:
+        if old is not None:  # put the previous report back
+            os.replace(old / out.name, out)
+            old.rmdir()
+        raise
+    if old is not None:
+        shutil.rmtree(old, ignore_errors=True)
+
+
+def _reuse_vtu(out: Path, model_key: str, target: Path) -> bool:
+    """Link the previous report's ``base.vtu`` into ``target`` if it came from the same model step."""
+    try:
+        previous = json.loads((out / "run.json").read_text())
+        if previous.get("step_keys", {}).get("model") != model_key or not (out / "base.vtu").is_file():
+            return False
+        try:
+            os.link(out / "base.vtu", target)  # the old folder keeps its own name for it
+        except OSError:
+            shutil.copy2(out / "base.vtu", target)
+        return True
+    except (OSError, ValueError, AttributeError):
+        return False
 
 
 def load_calibration(config: ReportConfig):
@@ -42,7 +130,8 @@ def run_report(
     Parameters
     ----------
     config : the resolved configuration
-    out_dir : folder to write (created; existing files of a previous report are replaced)
+    out_dir : folder to write: new, empty, or a previous report, which is replaced as a whole
+        once the new one is complete (see :func:`check_out_dir`)
     verbosity : 0 quiet, 1 one line per step and progress bars, 2 also timings and cache keys
     cache_dir : step cache (default ``$ISJ_FE_CACHE_DIR/report``)
     calibration : a loaded ``lumped.artifact.Calibration`` (default: as ``config.calibration.file`` says)
@@ -53,21 +142,34 @@ def run_report(
         ``steps`` (name → result), ``arrays``, ``timings_s``, ``cached`` (step names), ``pages``,
         ``provenance``.
     """
+    out = check_out_dir(out_dir)
+    t_start = time.perf_counter()
+    cal = calibration if calibration is not None else load_calibration(config)
+    staging = _staging_dir(out)
+    try:
+        summary = _run(config, out, staging, verbosity, cache_dir, cal, t_start)
+        _swap_in(staging, out)
+    except BaseException:
+        shutil.rmtree(staging, ignore_errors=True)
+        raise
+    return summary
+
+
+def _run(config: ReportConfig, out: Path, staging: Path, verbosity: int, cache_dir, cal, t_start) -> dict:
+    """Every step, the data files and the PDF, written into ``staging`` (``out`` is only read)."""
     from . import csvdata, pdf
 
-    out = Path(out_dir)
-    t_start = time.perf_counter()
+    final, out = out, staging
 
     def say(msg: str, level: int = 1) -> None:
         if verbosity >= level:
             print(msg, file=sys.stderr, flush=True)
 
-    cal = calibration if calibration is not None else load_calibration(config)
     ctx = Context(config, cal, _fe_cache_dir(), progress=verbosity >= 1)
     store = StepStore(cache_dir or default_cache_dir())
-    results, arrays, timings, cached = {}, {}, {}, []
+    results, arrays, timings, cached, keys = {}, {}, {}, [], {}
     for i, (name, fn, sections) in enumerate(STEPS, 1):
-        key = step_key(name, step_inputs(ctx, sections, fn))
+        key = keys[name] = step_key(name, step_inputs(ctx, sections, fn))
         t0 = time.perf_counter()
         hit = store.get(name, key)
         if hit is None:
@@ -93,7 +195,7 @@ def run_report(
 
     t0 = time.perf_counter()
     vtu = out / "base.vtu"
-    if not vtu.exists() or "model" not in cached:
+    if "model" not in cached or not _reuse_vtu(final, keys["model"], vtu):
         from .steps import write_base_vtu
 
         write_base_vtu(ctx, vtu)
@@ -114,9 +216,15 @@ def run_report(
     timings["total"] = time.perf_counter() - t_start
     atomic_write_json(
         out / "run.json",
-        {"provenance": provenance, "timings_s": timings, "cached_steps": cached, "pages": pages},
+        {
+            "provenance": provenance,
+            "timings_s": timings,
+            "cached_steps": cached,
+            "pages": pages,
+            "step_keys": keys,
+        },
     )
-    say(f"wrote {out / 'report.pdf'} ({len(pages)} pages) in {timings['total']:.1f} s", 1)
+    say(f"wrote {final / 'report.pdf'} ({len(pages)} pages) in {timings['total']:.1f} s", 1)
     return {
         "steps": results,
         "arrays": arrays,

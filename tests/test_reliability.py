@@ -124,3 +124,133 @@ def test_lanczos_start_is_fixed_and_not_degenerate():
     a, b = solvers.lanczos_start(1000), solvers.lanczos_start(1000)
     assert a.tobytes() == b.tobytes()
     assert a.shape == (1000,) and -1 <= a.min() < -0.9 and 0.9 < a.max() < 1
+
+
+def test_whole_ear_takes_its_joint_length_from_a_joint_of_another_stack_height():
+    import numpy as np
+    from isj.fem.ear.middle_ear import MiddleEarModel
+    from isj.fem.model import PedicleJointModel
+
+    from isj.design import Geometry
+    from isj.ear import EarGeometry
+
+    geometry = Geometry(gap_thickness_m=40e-6)  # 5 µm taller than the ear's default joint
+    joint = PedicleJointModel(geometry, order=1, resolution=0.35)
+    ear = MiddleEarModel(joint=joint)
+    g = ear.geometry
+    assert g.joint_length_m == geometry.z_top != EarGeometry().joint_length_m
+    assert g.long_process_end_m == EarGeometry().long_process_end_m  # the incus stays put
+    # the joint's end faces lie in the planes of the stapes head and of the long process's end
+    pts, z = ear.joint_points_m, np.asarray(g.joint_z_direction)
+    assert len(ear.stapes_face) > 0 and len(ear.incus_face) > 0
+    assert np.abs((pts[ear.stapes_face] - g.stapes_head_m) @ z).max() < 1e-12
+    assert np.abs((pts[ear.incus_face] - g.long_process_end_m) @ z).max() < 1e-12
+    res = ear.solve()
+    assert res.alpha_rad_per_pa > 0 and res.beta_rad_per_pa > 0
+    assert np.isfinite(res.footplate_piston_m_per_pa) and res.footplate_piston_m_per_pa > 0
+    # the rigid-joint variant of the same ear
+    rigid = MiddleEarModel(joint=None, geometry=g).solve()
+    assert rigid.footplate_piston_m_per_pa > res.footplate_piston_m_per_pa  # a compliant joint loses motion
+    assert EarGeometry().for_joint(Geometry()) is not None
+    assert EarGeometry().for_joint(Geometry()) == EarGeometry()
+
+
+# a coarse report (as tests/test_report.py's) with another stack height
+_COARSE_REPORT = {
+    "geometry": {"gap_thickness_m": 40e-6},
+    "mesh": {"order": 2, "resolution": 0.35},
+    "trends": {"moduli": ["gap_e_pa"], "n_lumped": 5, "fe_points": 1},
+    "convergence": {"orders": [2], "directions": ["y"]},
+    "calibration": {"check_samples": 1, "seed": 7},
+    "sweep": {"n_freq": 10, "fe_checks": 1, "n_modes": 3},
+}
+
+
+def _config(tmp_path, extra: dict | None = None):
+    import json
+
+    from isj.reports.config import load_config
+
+    sections = {k: dict(v) for k, v in _COARSE_REPORT.items()}
+    for k, v in (extra or {}).items():
+        sections.setdefault(k, {}).update(v)
+    case = tmp_path / f"case-{len(list(tmp_path.glob('case-*')))}.toml"
+    case.write_text(
+        "".join(
+            f"[{s}]\n" + "".join(f"{k} = {json.dumps(v)}\n" for k, v in values.items())
+            for s, values in sections.items()
+        )
+    )
+    return load_config(case)
+
+
+def _snapshot(folder) -> dict:
+    return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+def test_report_with_another_stack_height_completes_and_a_failed_run_leaves_the_old_one(
+    tmp_path, monkeypatch
+):
+    import json
+
+    import isj.reports.run as run
+
+    monkeypatch.setenv("ISJ_FE_CACHE_DIR", str(tmp_path / "fe"))
+    out = tmp_path / "out"
+    run.run_report(_config(tmp_path), out, verbosity=0)
+    ear = json.loads((out / "data" / "ear.json").read_text())
+    assert len(ear["cases"]) == 7 and ear["n_dofs"] > ear["n_dofs_rigid_joint"]
+    model = json.loads((out / "data" / "model.json").read_text())
+    assert model["base"]["alpha_rad"] > 0
+    assert "gap_thickness_m = 4e-05" in (out / "resolved_config.toml").read_text()
+    before = _snapshot(out)
+    assert "report.pdf" in before and "base.vtu" in before
+
+    # another configuration, interrupted at its last step: the old report stays whole
+    other = _config(tmp_path, {"ear": {"drum_e_pa": 30e6}})
+
+    def broken(ctx):
+        raise KeyboardInterrupt
+
+    steps = run.STEPS
+    monkeypatch.setattr(run, "STEPS", tuple((n, broken if n == "ear" else f, s) for n, f, s in steps))
+    with pytest.raises(KeyboardInterrupt):
+        run.run_report(other, out, verbosity=0)
+    assert _snapshot(out) == before
+    assert sorted(p.name for p in tmp_path.iterdir() if p.name.startswith(".")) == []  # no partial folder
+
+    # run again: it starts at the first unfinished step, and the new report replaces the old
+    monkeypatch.setattr(run, "STEPS", steps)
+    summary = run.run_report(other, out, verbosity=0)
+    assert summary["cached"] == ["model", "cases", "trends", "convergence", "calibration", "sweep"]
+    after = _snapshot(out)
+    assert after["data/model.json"] == before["data/model.json"]
+    assert after["data/ear.json"] != before["data/ear.json"]
+    assert after["base.vtu"] == before["base.vtu"]  # reused: the same model step
+    assert "drum_e_pa = 30000000.0" in (out / "resolved_config.toml").read_text()
+
+
+@pytest.mark.parametrize("kind", ["foreign file", "a file", "current folder", "empty name"])
+def test_report_refuses_an_output_folder_it_may_not_replace(tmp_path, monkeypatch, kind):
+    import isj.reports.run as run
+
+    monkeypatch.chdir(tmp_path)
+    target = tmp_path / "out"
+    if kind == "foreign file":
+        target.mkdir()
+        (target / "notes.txt").write_text("mine")
+    elif kind == "a file":
+        target.write_text("mine")
+    elif kind == "current folder":
+        target = tmp_path
+    else:
+        target = ""
+    with pytest.raises(InvalidParameter, match=r"^out_dir = .*: (holds|exists|must)"):
+        run.check_out_dir(target)
+    calls = []
+    monkeypatch.setattr(run, "_run", lambda *a, **k: calls.append(a))
+    with pytest.raises(InvalidParameter):
+        run.run_report(None, target, verbosity=0, calibration=object())
+    assert calls == []  # refused before anything is computed
+    if kind == "foreign file":
+        assert (target / "notes.txt").read_text() == "mine"

@@ -142,8 +142,10 @@ class MiddleEarModel:
     Parameters
     ----------
     geometry : anatomy (m), :class:`isj.ear.EarGeometry`
-    joint : a :class:`fem.model.PedicleJointModel` to embed (its geometry's z_top must equal
-        ``geometry.joint_length_m``), or None for the rigid-joint variant
+    joint : a :class:`fem.model.PedicleJointModel` to embed, or None for the rigid-joint
+        variant. The ear's joint length is the joint's z_top (:meth:`isj.ear.EarGeometry.for_joint`),
+        so ``self.geometry`` may differ from ``geometry`` in ``joint_length_m``: pass
+        ``self.geometry`` to a rigid-joint variant of the same ear.
     drum_mesh_size_m : eardrum element size (m); 0.25 mm gives ≈ 1600 triangles
     solver : sparse solver backend (``fem.solvers.make_solver``)
     """
@@ -156,7 +158,10 @@ class MiddleEarModel:
         solver: str = "auto",
     ):
         t0 = time.perf_counter()
-        g = self.geometry = geometry or EarGeometry()
+        g = geometry or EarGeometry()
+        if joint is not None:  # any stack height the joint model accepts: its length, not a check
+            g = g.for_joint(joint.geometry)
+        self.geometry = g
         self.joint = joint
         self._solver_name = solver
         self._solver = None
@@ -169,10 +174,6 @@ class MiddleEarModel:
         nj = 0
         if joint is not None:
             zt = joint.geometry.z_top
-            if abs(zt - g.joint_length_m) > 1e-9 * zt:
-                raise ValueError(
-                    f"joint_length_m = {g.joint_length_m!r} m: must equal the joint model's z_top = {zt!r} m"
-                )
             nj = joint.space.n_nodes
         self.off_body = self.off_joint + 3 * nj
         self.off_stapes = self.off_body + 6 if joint is not None else self.off_body
