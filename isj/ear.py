@@ -1,4 +1,4 @@
-"""Anatomy and mechanical constants of the cat middle ear (spec §5), in SI units.
+"""Anatomy and mechanical constants of the cat middle ear (docs/ear.md §5), in SI units.
 
 Shared vocabulary of the whole-ear models: the FE model (``fem.ear.ear``) and
 the lumped one (``lumped/``) read the same :class:`EarGeometry` and
@@ -12,8 +12,8 @@ middle ear, towards the cochlea) is −z; y completes a right-handed frame
 (anterior or posterior depending on the side: the model is symmetric enough
 that it does not matter, and the defaults put the incus at −y).
 
-Sources: the numbers marked "spec §5" come from the thesis (Funnell's cat
-model). Everything marked "estimate" is a plausible cat dimension chosen here,
+Sources: the numbers cited to docs/ear.md come from the thesis's cat model
+(thesis §6.4). Everything marked "estimate" is a plausible cat dimension chosen here,
 not a measurement; it is a parameter so that its effect can be studied.
 
 Layout of the defaults: the malleus–incus axis runs along y through
@@ -77,9 +77,9 @@ class EarGeometry:
     Parameters
     ----------
     drum_semi_axis_manubrium_m, drum_semi_axis_transverse_m : half-axes of the ring's ellipse
-        along x and y. Estimates: 4.0 and 3.2 mm (area π a b = 40.2 mm², spec §5's "about 0.4 cm²").
+        along x and y. Estimates: 4.0 and 3.2 mm (area π a b = 40.2 mm², docs/ear.md §5.2's "about 0.4 cm²").
     drum_cone_depth_m : depth of the umbo below the ring's plane. Estimate: 1.5 mm.
-    drum_normalized_radius : radius of curvature of the drum's generators / chord: 1.19 (spec §5).
+    drum_normalized_radius : radius of curvature of the drum's generators / chord: 1.19 (docs/ear.md §5.2).
     umbo_x_m : x of the umbo (which lies at (umbo_x, 0, −cone_depth)). Estimate: 0.
     manubrium_gap_m : ring-to-manubrium-tip distance along x. Estimate: 0.4 mm.
     body_reference_m : reference point of the malleus–incus rigid body: a point of the
@@ -106,18 +106,18 @@ class EarGeometry:
         head and footplate move along the piston direction.
     crura_height_m : distance along the piston direction from the stapes-head face (joint
         model z = 0) to the footplate's mid-plane. Estimate: 1.0 mm (cat stapes ≈ 1.1 mm tall).
-    footplate_area_m2 : area of the footplate's elliptical outline: 1.26 mm² (spec §5).
+    footplate_area_m2 : area of the footplate's elliptical outline: 1.26 mm² (docs/ear.md §5.5).
     footplate_aspect : ratio of the outline's long to short axis. Estimate: 2.2.
     footplate_long_axis : direction of the outline's long axis (perpendicular to the piston
         direction): (0, 1, 0), anteroposterior, across the long process (estimate).
-    footplate_centre_thickness_m : 20 µm (spec §5).
-    footplate_rim_thickness_m : 200 µm (spec §5).
+    footplate_centre_thickness_m : 20 µm (docs/ear.md §5.5).
+    footplate_rim_thickness_m : 200 µm (docs/ear.md §5.5).
     footplate_rim_fraction : width of the thick rim as a fraction of the outline's radius
         (the outermost annulus of elements, 0.8–1 of the radius). Estimate: 0.2.
     footplate_rings : rings of nodes in the footplate's structured mesh (the last one is the
         outline). Not a physical dimension.
     annular_springs : number of equally spaced outline nodes carrying the annular ligament
-        and cochlear load springs: 40 (spec §5).
+        and cochlear load springs: 40 (docs/ear.md §5.5).
     """
 
     drum_semi_axis_manubrium_m: float = 4.0e-3
@@ -269,22 +269,22 @@ class EarGeometry:
 
 @dataclass(frozen=True)
 class EarMaterials:
-    """Moduli (Pa), Poisson's ratios and spring stiffnesses (N/m) of the cat middle ear (spec §5).
+    """Moduli (Pa), Poisson's ratios and spring stiffnesses (N/m) of the cat middle ear (docs/ear.md §5).
 
     Parameters
     ----------
-    drum_e_pa, drum_nu, drum_thickness_m : pars tensa, 20 MPa, 0.3, 40 µm (spec §5).
-    footplate_e_pa, footplate_nu : stapes footplate, 20 GPa (spec §5), 0.3 (estimate).
+    drum_e_pa, drum_nu, drum_thickness_m : pars tensa, 20 MPa, 0.3, 40 µm (docs/ear.md §5.2).
+    footplate_e_pa, footplate_nu : stapes footplate, 20 GPa (docs/ear.md §5.5), 0.3 (estimate).
     malleus_ligament_n_m : anterior mallear ligament, 4 kN/m in total over three springs
-        (spec §5), here three springs of a third each along x, y and z at
+        (docs/ear.md §5.3), here three springs of a third each along x, y and z at
         :attr:`EarGeometry.malleus_ligament_m` (the directions are a modelling choice).
     incudal_lateral_n_m, incudal_medial_n_m : posterior incudal ligament, lateral bundle
-        10 kN/m, medial bundle 30 kN/m (spec §5); each bundle is an isotropic point spring
+        10 kN/m, medial bundle 30 kN/m (docs/ear.md §5.3); each bundle is an isotropic point spring
         (that stiffness along x, y and z) at its attachment (a modelling choice).
     annular_out_of_plane_n_m : annular ligament + cochlear load, each of the
-        :attr:`EarGeometry.annular_springs` springs along the piston direction: 11 N/m (spec §5).
+        :attr:`EarGeometry.annular_springs` springs along the piston direction: 11 N/m (docs/ear.md §5.5).
     annular_in_plane_n_m : each annular spring's stiffness along each of the two in-plane
-        directions: 9.9 N/m (spec §5; isotropic in the plane is a modelling choice).
+        directions: 9.9 N/m (docs/ear.md §5.5; isotropic in the plane is a modelling choice).
     """
 
     drum_e_pa: float = 20e6
@@ -323,14 +323,14 @@ class EarMaterials:
 class EarMasses:
     """Mass data of the whole ear (kg, m, kg/m³), read by both the FE and the lumped ear.
 
-    All estimates (no cat values found here) except the bone density, spec §4's default.
+    All estimates (no cat values found here) except the bone density, the estimate of docs/model.md §2.1.
 
     Parameters
     ----------
     drum_density_kg_m3 : pars tensa, 1200 kg/m³ (estimate); the shell's consistent mass.
         :data:`lumped.ear.DEFAULT_EARDRUM` was measured with this value.
     footplate_density_kg_m3 : the FE footplate shell's density, bone, 2000 kg/m³
-        (spec §4, :attr:`isj.design.Materials.bone_density_kg_m3`). The footplate is part of
+        (docs/dynamics.md §4.2, :attr:`isj.design.Materials.bone_density_kg_m3`). The footplate is part of
         the stapes: its shell mass is taken out of ``stapes_kg`` (see ``stapes_kg``).
     malleus_incus_kg : 6 mg (estimate)
     malleus_incus_gyration_m : isotropic radius of gyration about its centroid, 1.0 mm (estimate)
@@ -391,11 +391,11 @@ class EarMasses:
         return dataclasses.replace(self, **changes)
 
 
-#: Experimental cat references at low frequency, per Pa of ear-canal pressure (spec §5):
+#: Experimental cat references at low frequency, per Pa of ear-canal pressure (docs/ear.md §5.12):
 #: umbo ≈ 53 nm/Pa (Guinan & Peake 1967); stapes 25–30 nm/Pa (Guinan & Peake 1967),
 #: ≈ 30 nm/Pa (Decraemer et al. 2000).
 EXPERIMENT_UMBO_M_PER_PA = 53e-9
 EXPERIMENT_STAPES_M_PER_PA = (25e-9, 30e-9)
 
-#: 100 dB SPL as a peak pressure (Pa), the spec's stimulus: 20 µPa × 10^5 × √2.
+#: 100 dB SPL as a peak pressure (Pa), the thesis's stimulus (docs/ear.md §5.6): 20 µPa × 10^5 × √2.
 SPL_100DB_PEAK_PA = 2.828

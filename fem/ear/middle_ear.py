@@ -1,4 +1,4 @@
-"""The whole cat middle ear, static, with the 3-D pedicle-and-joint model inside (spec §5, §2).
+"""The whole cat middle ear, static, with the 3-D pedicle-and-joint model inside (docs/ear.md §5).
 
 >>> ear = MiddleEarModel(joint=PedicleJointModel(order=2))   # doctest: +SKIP
 >>> res = ear.solve(Materials())                             # per Pa of ear-canal pressure
@@ -26,7 +26,7 @@ Parts and their dofs (one full vector, SI units):
 Variant ``joint=None``: the joint replaced by a rigid connection; the stapes
 superstructure is then part of the malleus–incus body (small and fast).
 
-Dynamics (mass from :class:`isj.ear.EarMasses`, spec §4 damping, harmonic response per
+Dynamics (mass from :class:`isj.ear.EarMasses`, docs/dynamics.md §4.3 damping, harmonic response per
 Pa, natural frequencies): :mod:`fem.ear.ear_dynamics`, also as :meth:`MiddleEarModel.mass`,
 :meth:`MiddleEarModel.harmonic` and :meth:`MiddleEarModel.natural_frequencies`.
 
@@ -91,7 +91,7 @@ class EarStaticResult:
     eardrum_max_m_per_pa : largest displacement magnitude over the eardrum's nodes (m/Pa)
     footplate_m_per_pa : (3,) displacement of the footplate's centre node (m/Pa), ear frame
     footplate_piston_m_per_pa : its component along the piston direction (into the cochlea)
-    alpha_rad_per_pa, beta_rad_per_pa : joint and pedicle angles (spec §2.4 point pairs) of the
+    alpha_rad_per_pa, beta_rad_per_pa : joint and pedicle angles (docs/model.md §2.4 point pairs) of the
         embedded joint model (rad/Pa), about the joint's y axis; None for the rigid joint
     alpha_ls_rad_per_pa, beta_ls_rad_per_pa : the least-squares variants
     rotation_axis : the malleus–incus body's instantaneous axis: point (m), unit direction,
@@ -137,7 +137,7 @@ class EarStaticResult:
 
 
 class MiddleEarModel:
-    """Meshed and assembled whole cat middle ear (spec §5) with or without the 3-D joint inside.
+    """Meshed and assembled whole cat middle ear (docs/ear.md §5) with or without the 3-D joint inside.
 
     Parameters
     ----------
@@ -329,7 +329,7 @@ class MiddleEarModel:
         Parameters
         ----------
         materials : moduli of the embedded joint model (ignored by the rigid-joint variant)
-        ear_materials : eardrum, footplate and spring constants (default: spec §5)
+        ear_materials : eardrum, footplate and spring constants (default: docs/ear.md §5.8)
         """
         materials = materials or Materials()
         t0 = time.perf_counter()
