@@ -16,7 +16,6 @@ deleted and recomputed.
 from __future__ import annotations
 
 import hashlib
-import json
 import os
 from pathlib import Path
 
@@ -24,6 +23,7 @@ import numpy as np
 
 from isj.cachefile import (
     DamagedEntry,
+    canonical_json,
     discard,
     read_json_entry,
     read_npz_entry,
@@ -37,8 +37,12 @@ default_cache_dir = report_cache_dir
 
 
 def step_key(name: str, inputs) -> str:
-    """sha256 (hex, 24 digits) of the step name and its JSON-able inputs."""
-    text = json.dumps({"step": name, "inputs": inputs}, sort_keys=True, default=repr)
+    """sha256 (hex, 24 digits) of the canonical JSON of the step name and its inputs.
+
+    The inputs must be plain JSON (a TypeError otherwise): a ``repr`` fallback could
+    abbreviate an array and give two different inputs one key.
+    """
+    text = canonical_json({"step": name, "inputs": inputs})
     return hashlib.sha256(text.encode()).hexdigest()[:24]
 
 
