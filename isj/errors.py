@@ -29,6 +29,7 @@ __all__ = [
     "CorruptCacheEntry",
     "OutOfDomainWarning",
     "CalibrationWarning",
+    "VolumetricLockingWarning",
 ]
 
 
@@ -123,3 +124,7 @@ class OutOfDomainWarning(IsjWarning):
 
 class CalibrationWarning(IsjWarning):
     """Settings differ from those the calibration was made with (e.g. FE checks at another mesh)."""
+
+
+class VolumetricLockingWarning(IsjWarning):
+    """Poisson's ratio so close to 0.5 that displacement elements lock (see ``isj.fem.model``)."""

@@ -19,7 +19,13 @@ ERRORS = {
     "FitFailed": RuntimeError,
     "EvaluationError": RuntimeError,
 }
-WARNINGS = ["CacheWarning", "CorruptCacheEntry", "OutOfDomainWarning", "CalibrationWarning"]
+WARNINGS = [
+    "CacheWarning",
+    "CorruptCacheEntry",
+    "OutOfDomainWarning",
+    "CalibrationWarning",
+    "VolumetricLockingWarning",
+]
 
 # where each class lived before isj.errors; code that imports it from there must keep working
 OLD_HOMES = {

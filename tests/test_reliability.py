@@ -254,3 +254,91 @@ def test_report_refuses_an_output_folder_it_may_not_replace(tmp_path, monkeypatc
     assert calls == []  # refused before anything is computed
     if kind == "foreign file":
         assert (target / "notes.txt").read_text() == "mine"
+
+
+# ---------------------------------------------------------------- bad geometry, locking, mesh size
+
+
+@pytest.mark.parametrize("name", sorted(__import__("isj.design", fromlist=["x"]).GEOMETRY_BOUNDS_M))
+def test_geometry_outside_its_physical_bounds_is_refused_naming_the_field(name):
+    from isj.design import GEOMETRY_BOUNDS_M, Geometry
+
+    lo, hi = GEOMETRY_BOUNDS_M[name]
+    for bad in (lo * 0.99, hi * 1.01, 1.0):  # 1.0: metre-sized
+        with pytest.raises(InvalidParameter, match=rf"^{name} = .* m: must lie in \[{lo:g}, {hi:g}\] m$"):
+            Geometry(**{name: bad})
+    assert lo <= getattr(Geometry(), name) <= hi  # the default is inside
+
+
+def test_degenerate_gap_is_refused_and_the_thinnest_allowed_gap_meshes_well():
+    from isj.fem.mesh import mesh_pedicle_joint
+    from isj.fem.quality import mesh_quality
+
+    from isj.design import GEOMETRY_BOUNDS_M, Geometry
+
+    with pytest.raises(InvalidParameter, match="gap_thickness_m = 1e-09 m"):
+        Geometry(gap_thickness_m=1e-9)  # gave a minimum dihedral angle of 0.0014°
+    thinnest = GEOMETRY_BOUNDS_M["gap_thickness_m"][0]
+    q = mesh_quality(mesh_pedicle_joint(Geometry(gap_thickness_m=thinnest), resolution=0.5, cache_dir=False))
+    assert q["min_dihedral_deg"] > 1.5  # 2.1° measured (the default geometry: 2.0°)
+
+
+def test_nearly_incompressible_materials_warn_of_locking(coarse_model):
+    import warnings
+
+    from isj.fem.model import LOCKING_NU, check_locking
+
+    from isj.design import Materials
+    from isj.errors import IsjWarning, VolumetricLockingWarning
+
+    assert issubclass(VolumetricLockingWarning, IsjWarning)
+    with pytest.warns(VolumetricLockingWarning, match=r"nu = 0.4999999: above 0.49 P2"):
+        locked = coarse_model.solve(Materials(nu=0.4999999))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", VolumetricLockingWarning)
+        fine = coarse_model.solve(Materials(nu=LOCKING_NU[2]))  # the threshold itself: no warning
+    assert locked.alpha_rad < fine.alpha_rad
+    assert not check_locking(0.45, 1) and not check_locking(0.3, 2)
+    with pytest.warns(VolumetricLockingWarning, match="P1"):
+        assert check_locking(0.46, 1)  # P1 elements lock earlier
+
+
+def test_mesh_size_estimate_matches_meshes_it_was_not_fitted_to():
+    from isj.fem.mesh import mesh_pedicle_joint
+    from isj.fem.model import ElasticModel
+    from isj.fem.sizing import MEASURED_TET_ERROR, estimate_mesh_size
+
+    from isj.design import Geometry
+
+    for geometry, resolution in (
+        (Geometry(), 0.6),
+        (Geometry(joint_x_m=450e-6, pedicle_length_m=400e-6), 0.5),
+    ):
+        mesh = mesh_pedicle_joint(geometry, resolution=resolution, cache_dir=False)
+        n_tets, n_dofs, n_bytes = estimate_mesh_size(geometry, 1, resolution)
+        assert abs(n_tets / mesh.n_tets - 1) < MEASURED_TET_ERROR + 0.05
+        assert abs(n_dofs / ElasticModel(mesh, order=1).n_dofs - 1) < 0.25
+        assert 4e3 * n_dofs < n_bytes < 2e4 * n_dofs  # P1 models measured 6.5–7.8 kB per dof
+        t2, d2, b2 = estimate_mesh_size(geometry, 2, resolution)
+        assert t2 == n_tets and 5 < d2 / n_dofs < 8 and b2 > n_bytes  # P2: ~6.5x the dofs
+
+
+def test_an_over_large_mesh_is_refused_up_front_with_the_largest_resolution_that_fits():
+    import re
+
+    from isj.fem.sizing import check_mesh_size, estimate_mesh_size
+
+    from isj.design import Geometry
+
+    sizes = [estimate_mesh_size(order=2, resolution=r) for r in (0.5, 1.0, 2.0, 4.0)]
+    assert all(a[k] < b[k] for a, b in zip(sizes, sizes[1:], strict=False) for k in range(3))
+    big = Geometry(joint_x_m=2e-3, joint_y_m=2e-3, incus_x_m=2e-3, incus_y_m=2e-3)
+    with pytest.raises(InvalidParameter) as err:
+        check_mesh_size(big, 2, 50, max_bytes=4 * 2**30, name="--resolution")
+    message = str(err.value)
+    assert "\n" not in message and message.startswith("--resolution = 50: the P2 model would need about")
+    largest = float(re.search(r"must be <= ([0-9.e+-]+) for this geometry", message).group(1))
+    assert check_mesh_size(big, 2, largest * 0.999, max_bytes=4 * 2**30)[2] <= 4 * 2**30
+    with pytest.raises(InvalidParameter):
+        check_mesh_size(big, 2, largest * 1.02, max_bytes=4 * 2**30)
+    assert check_mesh_size(order=2, resolution=1.0)[1] > 1e5  # the default mesh is accepted
