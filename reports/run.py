@@ -13,7 +13,9 @@ the next run start again at the first unfinished step). The output folder gets:
 
 Bad configuration is rejected by :func:`reports.config.load_config` before
 this module creates anything; so is an output folder that holds anything but
-a previous report (:func:`check_out_dir`), since it is replaced as a whole.
+a previous report (:func:`check_out_dir`), since it is replaced as a whole, and
+a geometry and mesh whose model would not fit in memory
+(:func:`isj.fem.sizing.check_mesh_size`).
 """
 
 from __future__ import annotations
@@ -143,6 +145,10 @@ def run_report(
         ``provenance``.
     """
     out = check_out_dir(out_dir)
+    from isj.fem.sizing import check_mesh_size
+
+    # before anything is computed: a geometry and resolution whose model would not fit in memory
+    check_mesh_size(config.geometry, config.mesh.order, config.mesh.resolution, name="mesh.resolution")
     t_start = time.perf_counter()
     cal = calibration if calibration is not None else load_calibration(config)
     staging = _staging_dir(out)

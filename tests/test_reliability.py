@@ -342,3 +342,15 @@ def test_an_over_large_mesh_is_refused_up_front_with_the_largest_resolution_that
     with pytest.raises(InvalidParameter):
         check_mesh_size(big, 2, largest * 1.02, max_bytes=4 * 2**30)
     assert check_mesh_size(order=2, resolution=1.0)[1] > 1e5  # the default mesh is accepted
+
+
+def test_report_refuses_a_mesh_too_large_for_memory_before_computing(tmp_path, monkeypatch, capsys):
+    from isj.cli import main
+
+    monkeypatch.setenv("ISJ_FE_CACHE_DIR", str(tmp_path / "fe"))
+    out = tmp_path / "out"
+    # P2 at resolution 4: about 3 million dofs, tens of GB by the estimate
+    assert main(["report", "--set", "mesh.resolution=4", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "mesh.resolution = 4" in err[0] and "must be <=" in err[0]
+    assert not out.exists() and not (tmp_path / "fe").exists()
