@@ -43,47 +43,66 @@ _fe_cache_dir = fe_cache_dir  # the default FE result cache, shared with the CLI
 REPORT_ENTRIES = frozenset({"report.pdf", "data", "resolved_config.toml", "run.json", "base.vtu"})
 
 
-def check_out_dir(out_dir: str | os.PathLike) -> Path:
+def check_out_dir(out_dir: str | os.PathLike, name: str = "out_dir") -> Path:
     """The output folder as an absolute path, if a finished report may replace it.
 
     It may be new, empty, or a previous report (only :data:`REPORT_ENTRIES`): the
-    report replaces the whole folder, so a folder with other files, a file, or the
-    current folder (or one above it) is refused.
+    report replaces the whole folder, so a folder with other files, a file, a
+    symbolic link, or the current folder (or one above it) is refused, and so is
+    a place where no folder can be created (tried with an empty folder, removed).
+
+    Parameters
+    ----------
+    out_dir : the folder
+    name : what to call it in the message (``"--out"`` on the command line)
 
     Raises
     ------
     InvalidParameter
-        One line naming ``out_dir`` and what it must be.
+        One line naming ``name`` and what the folder must be.
     """
     text = str(out_dir)
     out = Path(os.path.abspath(text)) if text.strip() else None
     if out is None or out.parent == out:
-        raise InvalidParameter(f"out_dir = {text!r}: must name a folder (not empty, not a root)")
+        raise InvalidParameter(f"{name} = {text!r}: must name a folder (not empty, not a root)")
     cwd = Path.cwd().absolute()
     if out == cwd or out in cwd.parents:
-        raise InvalidParameter(f"out_dir = {text!r}: must not be the current folder or one above it")
-    if out.exists() or out.is_symlink():
-        if out.is_symlink() or not out.is_dir():
-            raise InvalidParameter(f"out_dir = {text!r}: exists and is not a folder")
+        raise InvalidParameter(f"{name} = {text!r}: must not be the current folder or one above it")
+    if out.is_symlink():
+        raise InvalidParameter(f"{name} = {text!r}: is a symbolic link; give the folder it points to")
+    if out.exists():
+        if not out.is_dir():
+            raise InvalidParameter(f"{name} = {text!r}: exists and is not a folder")
         other = sorted(p.name for p in out.iterdir() if p.name not in REPORT_ENTRIES)
         if other:
             raise InvalidParameter(
-                f"out_dir = {text!r}: holds {other[0]!r}, which is not part of a report; "
+                f"{name} = {text!r}: holds {other[0]!r}, which is not part of a report; "
                 "must be a new or empty folder or a previous report"
             )
+    above = next(p for p in out.parents if p.exists())
+    try:  # the report's folder is created beside the output folder: try that, leaving nothing
+        os.rmdir(tempfile.mkdtemp(prefix=".isj-probe-", dir=above))
+    except OSError as exc:
+        raise InvalidParameter(
+            f"{name} = {text!r}: no folder can be created in {str(above)!r} ({exc.strerror or exc})"
+        ) from None
     return out
 
 
 def _staging_dir(out: Path) -> Path:
     """A new empty sibling of ``out`` to write the report into (permissions as ``mkdir`` gives)."""
-    out.parent.mkdir(parents=True, exist_ok=True)
     while True:
         staging = out.parent / f".{out.name}.{secrets.token_hex(4)}.partial"
         try:
+            out.parent.mkdir(parents=True, exist_ok=True)
             staging.mkdir()  # not mkdtemp: its 0700 would become the report folder's mode
             return staging
         except FileExistsError:  # pragma: no cover - 32 random bits
             continue
+        except OSError as exc:  # before any computation: say so in one line
+            raise InvalidParameter(
+                f"out_dir = {str(out)!r}: cannot create a folder beside it ({exc.strerror or exc})"
+            ) from None
 
 
 def _swap_in(staging: Path, out: Path) -> None:
@@ -125,7 +144,12 @@ def load_calibration(config: ReportConfig):
 
 
 def run_report(
-    config: ReportConfig, out_dir: str | Path, verbosity: int = 1, cache_dir=None, calibration=None
+    config: ReportConfig,
+    out_dir: str | Path,
+    verbosity: int = 1,
+    cache_dir=None,
+    calibration=None,
+    out_name: str = "out_dir",
 ) -> dict:
     """Compute (or reuse) every step and write the report into ``out_dir``.
 
@@ -137,6 +161,7 @@ def run_report(
     verbosity : 0 quiet, 1 one line per step and progress bars, 2 also timings and cache keys
     cache_dir : step cache (default ``$ISJ_FE_CACHE_DIR/report``)
     calibration : a loaded ``lumped.artifact.Calibration`` (default: as ``config.calibration.file`` says)
+    out_name : what to call ``out_dir`` in messages (``"--out"`` on the command line)
 
     Returns
     -------
@@ -144,7 +169,7 @@ def run_report(
         ``steps`` (name → result), ``arrays``, ``timings_s``, ``cached`` (step names), ``pages``,
         ``provenance``.
     """
-    out = check_out_dir(out_dir)
+    out = check_out_dir(out_dir, out_name)
     from isj.fem.sizing import check_mesh_size
 
     # before anything is computed: a geometry and resolution whose model would not fit in memory

@@ -230,7 +230,9 @@ def test_report_with_another_stack_height_completes_and_a_failed_run_leaves_the_
     assert "drum_e_pa = 30000000.0" in (out / "resolved_config.toml").read_text()
 
 
-@pytest.mark.parametrize("kind", ["foreign file", "a file", "current folder", "empty name"])
+@pytest.mark.parametrize(
+    "kind", ["foreign file", "a file", "current folder", "empty name", "unwritable", "link"]
+)
 def test_report_refuses_an_output_folder_it_may_not_replace(tmp_path, monkeypatch, kind):
     import isj.reports.run as run
 
@@ -243,15 +245,22 @@ def test_report_refuses_an_output_folder_it_may_not_replace(tmp_path, monkeypatc
         target.write_text("mine")
     elif kind == "current folder":
         target = tmp_path
+    elif kind == "unwritable":
+        target = "/proc/isj/report"
+    elif kind == "link":
+        (tmp_path / "real").mkdir()
+        target.symlink_to(tmp_path / "real")
     else:
         target = ""
-    with pytest.raises(InvalidParameter, match=r"^out_dir = .*: (holds|exists|must)"):
-        run.check_out_dir(target)
+    with pytest.raises(InvalidParameter, match=r"^--out = .*: (holds|exists|must|no folder|is a symbolic)"):
+        run.check_out_dir(target, "--out")
+    before = sorted(p.name for p in tmp_path.iterdir())
     calls = []
     monkeypatch.setattr(run, "_run", lambda *a, **k: calls.append(a))
     with pytest.raises(InvalidParameter):
         run.run_report(None, target, verbosity=0, calibration=object())
     assert calls == []  # refused before anything is computed
+    assert sorted(p.name for p in tmp_path.iterdir()) == before  # and nothing written
     if kind == "foreign file":
         assert (target / "notes.txt").read_text() == "mine"
 
