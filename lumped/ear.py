@@ -262,8 +262,8 @@ def ear_model(
         shipped calibration's
     geometry, ear_materials : the ear's anatomy (m) and springs (N/m); the drum's modulus in
         ``ear_materials`` rescales ``eardrum`` (exact)
-    joint_geometry : the joint model's dimensions (m); its z_top must equal
-        ``geometry.joint_length_m``
+    joint_geometry : the joint model's dimensions (m); the ear's joint length is its z_top
+        (:meth:`isj.ear.EarGeometry.for_joint`)
     eardrum : the drum's condensed parameters (default :data:`DEFAULT_EARDRUM`, valid for the
         default anatomy; measure others with :func:`fem.ear.lumped_params.eardrum_parameters`)
     masses : ossicle masses (kg) and radii of gyration (m), estimates (:class:`isj.ear.EarMasses`;
@@ -285,10 +285,7 @@ def ear_model(
             raise InvalidParameter(f"{name} = {v!r}: must be a finite number >= 0")
     if not np.isfinite(loss_factor) or loss_factor < 0:
         raise InvalidParameter(f"loss_factor = {loss_factor!r}: must be a finite number >= 0")
-    if abs(jg.z_top - g.joint_length_m) > 1e-9 * jg.z_top:
-        raise InvalidParameter(
-            f"joint_length_m = {g.joint_length_m!r} m: must equal the joint geometry's z_top = {jg.z_top!r} m"
-        )
+    g = g.for_joint(jg)  # any stack height the joint model accepts: the ear takes its length
     x_b = np.asarray(g.body_reference_m, dtype=float)
     if np.linalg.norm(np.asarray(drum.reference_m) - x_b) > 1e-9:
         raise InvalidParameter(
