@@ -151,8 +151,12 @@ def test_whole_ear_takes_its_joint_length_from_a_joint_of_another_stack_height()
     # the rigid-joint variant of the same ear
     rigid = MiddleEarModel(joint=None, geometry=g).solve()
     assert rigid.footplate_piston_m_per_pa > res.footplate_piston_m_per_pa  # a compliant joint loses motion
-    assert EarGeometry().for_joint(Geometry()) is not None
     assert EarGeometry().for_joint(Geometry()) == EarGeometry()
+    # the lumped ear too
+    from isj.lumped.ear import ear_model
+
+    lumped = ear_model(joint_geometry=geometry).freq_resp([100.0])
+    assert lumped.shape == (1, 4) and np.isfinite(lumped).all()
 
 
 # a coarse report (as tests/test_report.py's) with another stack height
