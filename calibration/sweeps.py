@@ -18,6 +18,7 @@ import numpy as np
 from isj.lumped.dynamics import OUTPUTS as CHAIN_OUTPUTS
 from isj.lumped.dynamics import SecondOrderModel, chain_model, frequency_response
 
+from isj.damping import resolve, warn_rayleigh_band
 from isj.design import DEFAULT_PRESSURE_PA, REGIONS, Geometry, Materials
 from isj.validate import check_band, check_frequencies
 
@@ -153,9 +154,10 @@ def chain_sweep(
     freq_hz,
     materials: Materials | None = None,
     geometry: Geometry | None = None,
-    rayleigh_a_per_s: float = 0.0,
-    rayleigh_b_s: float = 1e-4,
-    loss_factor: float = 0.0,
+    rayleigh_a_per_s=None,
+    rayleigh_b_s=None,
+    loss_factor=None,
+    damping=None,
     pressure_pa: float = DEFAULT_PRESSURE_PA,
 ) -> ChainSweep:
     """Sweep the calibrated lumped chain of one design over ``freq_hz``.
@@ -171,20 +173,26 @@ def chain_sweep(
     geometry : Geometry
         Dimensions (m).
     rayleigh_a_per_s, rayleigh_b_s, loss_factor
-        Rayleigh damping E = a M + b K (1/s, s) and the structural loss factor η.
+        Changes to ``damping``: Rayleigh a (1/s), b (s) and loss factors η, numbers for every
+        region or mappings region → value (None: unchanged).
+    damping : isj.damping.Damping or str
+        Damping per region, or a preset name (default: the published loss factors). A Rayleigh
+        term with ωb or a/ω above 0.5 inside the band draws an ``isj.errors.DampingWarning``.
     pressure_pa : float
         Pressure amplitude on the incus (Pa).
     """
     materials = materials or Materials()
     freq = check_frequencies(freq_hz)
+    damping = resolve(
+        damping, rayleigh_a_per_s=rayleigh_a_per_s, rayleigh_b_s=rayleigh_b_s, loss_factor=loss_factor
+    )
+    warn_rayleigh_band(damping, float(freq.min()), float(freq.max()), REGIONS)
     model = chain_model(
         calibration.factor_array(),
         calibration.shear_factor,
         geometry,
         materials,
-        rayleigh_a_per_s=rayleigh_a_per_s,
-        rayleigh_b_s=rayleigh_b_s,
-        loss_factor=loss_factor,
+        damping=damping,
         **region_moduli(materials),
     )
     poles_hz, zeta = model.poles()
@@ -247,9 +255,10 @@ def ear_sweep(
     materials: Materials | None = None,
     ear_materials=None,
     rigid_joint: bool = False,
-    rayleigh_a_per_s: float = 0.0,
-    rayleigh_b_s: float = 1e-4,
-    loss_factor: float = 0.0,
+    rayleigh_a_per_s=None,
+    rayleigh_b_s=None,
+    loss_factor=None,
+    damping=None,
 ) -> EarSweep:
     """Sweep the lumped cat middle ear of one joint design over ``freq_hz``, per Pa.
 
@@ -266,18 +275,23 @@ def ear_sweep(
     rigid_joint : bool
         A rigid incus–stapes connection instead of the calibrated joint (no α, β).
     rayleigh_a_per_s, rayleigh_b_s, loss_factor
-        Damping (1/s, s, dimensionless).
+        Changes to ``damping`` (1/s, s, dimensionless; None: unchanged).
+    damping : isj.damping.Damping or str
+        Damping per part, or a preset name (default: the published loss factors); warns as
+        :func:`chain_sweep` does.
     """
     from isj.lumped.ear import ear_model
 
     freq = check_frequencies(freq_hz)
+    damping = resolve(
+        damping, rayleigh_a_per_s=rayleigh_a_per_s, rayleigh_b_s=rayleigh_b_s, loss_factor=loss_factor
+    )
+    warn_rayleigh_band(damping, float(freq.min()), float(freq.max()))
     lumped = ear_model(
         calibration.factor_array(),
         ear_materials=ear_materials,
         rigid_joint=rigid_joint,
-        rayleigh_a_per_s=rayleigh_a_per_s,
-        rayleigh_b_s=rayleigh_b_s,
-        loss_factor=loss_factor,
+        damping=damping,
         **region_moduli(materials or Materials()),
     )
     poles_hz, zeta = lumped.natural_frequencies_hz()

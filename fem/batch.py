@@ -218,16 +218,28 @@ def evaluate_modes(design: Mapping, settings: Mapping) -> dict:
     }
 
 
-#: Extra settings of :func:`evaluate_harmonic`: frequencies (Hz) and damping (docs/dynamics.md §4.3).
-HARMONIC_KEYS = frozenset({"kind", "freq_hz", "rayleigh_a_per_s", "rayleigh_b_s", "loss_factor"})
+#: Extra settings of :func:`evaluate_harmonic`: frequencies (Hz) and damping (docs/dynamics.md §4.3):
+#: ``damping`` (:meth:`isj.damping.Damping.to_dict`) and/or changes to it by field.
+HARMONIC_KEYS = frozenset(
+    {
+        "kind",
+        "freq_hz",
+        "damping",
+        "rayleigh_a_per_s",
+        "rayleigh_b_s",
+        "loss_factor",
+        "cochlear_impedance_pa_s_m3",
+    }
+)
 
 
 def evaluate_harmonic(design: Mapping, settings: Mapping) -> dict:
     """Damped harmonic response of one design at a few frequencies (FE, docs/dynamics.md §4.5).
 
     ``settings`` as for :func:`evaluate_design` plus ``freq_hz`` (list, Hz) and
-    the damping ``rayleigh_a_per_s``, ``rayleigh_b_s``, ``loss_factor``
-    (defaults of :class:`fem.dynamics.Damping`).
+    the damping: ``damping``, a :meth:`isj.damping.Damping.to_dict` (default: the published
+    loss factors), changed by ``rayleigh_a_per_s``, ``rayleigh_b_s``, ``loss_factor`` (numbers
+    for every region or mappings region → value).
 
     Returns
     -------
@@ -235,7 +247,9 @@ def evaluate_harmonic(design: Mapping, settings: Mapping) -> dict:
         ``freq_hz`` and, per output (``alpha_rad``, ``beta_rad``, ``incus_ux_m``),
         ``{output}_re`` and ``{output}_im``: lists over the frequencies (rad, m).
     """
-    from .dynamics import Damping, harmonic_outputs
+    from isj.damping import Damping, resolve
+
+    from .dynamics import harmonic_outputs
 
     s = dict(settings)
     extra = {k: s.pop(k) for k in HARMONIC_KEYS if k in s}
@@ -247,12 +261,14 @@ def evaluate_harmonic(design: Mapping, settings: Mapping) -> dict:
     freq = [float(f) for f in extra.get("freq_hz", ())]
     if not freq:
         raise InvalidParameter("settings['freq_hz']: must list at least one frequency (Hz)")
-    defaults = Damping()
-    damping = Damping(
-        *(
-            float(extra.get(k, getattr(defaults, k)))
-            for k in ("rayleigh_a_per_s", "rayleigh_b_s", "loss_factor")
-        )
+    base = extra.get("damping")
+    damping = resolve(
+        Damping.from_dict(base) if isinstance(base, Mapping) else base,
+        **{
+            k: extra[k]
+            for k in ("rayleigh_a_per_s", "rayleigh_b_s", "loss_factor", "cochlear_impedance_pa_s_m3")
+            if k in extra
+        },
     )
     pressure = check_pressure(s.get("pressure_pa", DEFAULT_PRESSURE_PA))
     materials = Materials(**{k: float(v) for k, v in design.items()})

@@ -43,7 +43,7 @@ _LAZY: dict[str, str] = {
     # the FE models
     "PedicleJointModel": "isj.fem.model",
     "StaticResult": "isj.fem.model",
-    "Damping": "isj.fem.dynamics",
+    "Damping": "isj.damping",
     "MiddleEarModel": "isj.fem.ear.middle_ear",
     "EarStaticResult": "isj.fem.ear.middle_ear",
     "EarDamping": "isj.fem.ear.ear_dynamics",

@@ -30,6 +30,7 @@ __all__ = [
     "OutOfDomainWarning",
     "CalibrationWarning",
     "VolumetricLockingWarning",
+    "DampingWarning",
 ]
 
 
@@ -128,3 +129,8 @@ class CalibrationWarning(IsjWarning):
 
 class VolumetricLockingWarning(IsjWarning):
     """Poisson's ratio so close to 0.5 that displacement elements lock (see ``isj.fem.model``)."""
+
+
+class DampingWarning(IsjWarning):
+    """A Rayleigh damping term is large inside the requested band (ωb or a/ω > 0.5): there the
+    damping law, not the structure, shapes the response (docs/dynamics.md §4.3)."""

@@ -235,15 +235,18 @@ class LumpedModel:
         self,
         materials=None,
         *,
-        rayleigh_a_per_s: float = 0.0,
-        rayleigh_b_s: float = 1e-4,
-        loss_factor: float = 0.0,
+        rayleigh_a_per_s=None,
+        rayleigh_b_s=None,
+        loss_factor=None,
+        damping=None,
         **moduli,
     ) -> SecondOrderModel:
         """The eight-coordinate chain (:func:`isj.lumped.dynamics.chain_model`), one or many designs.
 
         ``materials`` as in :meth:`static`; a :class:`Materials` also gives ν and the densities
-        (kg/m³). Damping: Rayleigh a (1/s), b (s) and a loss factor η (dimensionless).
+        (kg/m³). Damping: an :class:`isj.damping.Damping` or a preset name (default: the published
+        loss factors per region), changed by Rayleigh a (1/s), b (s) and loss factors η (numbers
+        for every region or mappings region → value; None leaves them).
         """
         mat = materials if isinstance(materials, Materials) else None
         return chain_model(
@@ -254,6 +257,7 @@ class LumpedModel:
             rayleigh_a_per_s=rayleigh_a_per_s,
             rayleigh_b_s=rayleigh_b_s,
             loss_factor=loss_factor,
+            damping=damping,
             **self._moduli(materials, moduli),
         )
 
@@ -263,9 +267,10 @@ class LumpedModel:
         materials=None,
         *,
         pressure_pa: float = DEFAULT_PRESSURE_PA,
-        rayleigh_a_per_s: float = 0.0,
-        rayleigh_b_s: float = 1e-4,
-        loss_factor: float = 0.0,
+        rayleigh_a_per_s=None,
+        rayleigh_b_s=None,
+        loss_factor=None,
+        damping=None,
         **moduli,
     ):
         """The chain's α, β (rad) and incus u_x (m) at ``freq_hz`` (Hz) for one design.
@@ -279,6 +284,7 @@ class LumpedModel:
             rayleigh_a_per_s=rayleigh_a_per_s,
             rayleigh_b_s=rayleigh_b_s,
             loss_factor=loss_factor,
+            damping=damping,
             **moduli,
         )
         return chain_response(model, freq_hz, _pressure(pressure_pa))
@@ -299,9 +305,10 @@ class LumpedModel:
         masses=None,
         rigid_joint: bool = False,
         body: str = "rigid",
-        rayleigh_a_per_s: float = 0.0,
-        rayleigh_b_s: float = 1e-4,
-        loss_factor: float = 0.0,
+        rayleigh_a_per_s=None,
+        rayleigh_b_s=None,
+        loss_factor=None,
+        damping=None,
         **moduli,
     ) -> LumpedEar:
         """The lumped ear (:func:`isj.lumped.ear.ear_model`) with this calibration's joint.
@@ -313,7 +320,8 @@ class LumpedModel:
             :class:`isj.ear.EarMaterials` (Pa, N/m); defaults: the cat ear
         eardrum, masses, body : see :func:`isj.lumped.ear.ear_model`
         rigid_joint : no joint and pedicle compliance (α = β = 0)
-        rayleigh_a_per_s, rayleigh_b_s, loss_factor : damping (1/s, s, dimensionless)
+        damping : :class:`isj.damping.Damping` or a preset name (default: published loss factors)
+        rayleigh_a_per_s, rayleigh_b_s, loss_factor : changes to it (1/s, s, dimensionless)
         """
         return ear_model(
             self.factors,
@@ -327,6 +335,7 @@ class LumpedModel:
             rayleigh_a_per_s=rayleigh_a_per_s,
             rayleigh_b_s=rayleigh_b_s,
             loss_factor=loss_factor,
+            damping=damping,
             **self._moduli(materials, moduli),
         )
 

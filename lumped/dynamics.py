@@ -1,8 +1,7 @@
 """Lumped dynamics: a second-order model M q̈ + C q̇ + K q = B u, y = C_out q (docs/dynamics.md §4.6).
 
-In the style of pyMOR's ``SecondOrderModel``: the matrices are arrays, batched
-over designs (leading axis), and :meth:`SecondOrderModel.freq_resp` returns
-(n_freq, n_out, n_in) for one design, (n_design, n_freq, n_out, n_in) for many.
+The model class, :class:`SecondOrderModel`, lives in :mod:`isj.lumped.second_order`
+(matrices batched over designs, in the style of pyMOR's ``SecondOrderModel``).
 
 The pedicle-and-joint chain in the x–z plane (:func:`chain_model`) has eight
 coordinates (:data:`COORDINATES`), from the clamped face of the stapes head up:
@@ -38,7 +37,9 @@ shear's deformations leave them unchanged). The mass is consistent: ∫ ρ A (g 
 w_x²/12 h hᵀ) dz over the FE regions (densities of docs/dynamics.md §4.2), g(z) and h(z) the x
 displacement and rotation per unit coordinate (Hermite cubics along the stapes head
 and the pedicle), by exact Gauss quadrature; the capsule's mass is left out. Damping
-is the FE model's: Rayleigh C = a M + b K and/or a structural loss factor, K(1 + iη).
+is the FE model's, per region (:class:`isj.damping.Damping`): each spring takes the loss
+factors and Rayleigh b of the regions whose moduli set it, in proportion to their share
+(:mod:`isj.lumped.damping`), each body's mass its region's Rayleigh a.
 
 Outputs y = [α, β, u_x at the load centroid]; input u = the pressure (Pa).
 """
@@ -49,121 +50,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from isj.design import DEFAULT_PRESSURE_PA, Geometry, InvalidParameter, Materials
-from isj.validate import check_frequencies
+from isj.damping import Damping, resolve
+from isj.design import DEFAULT_PRESSURE_PA, REGIONS, Geometry, InvalidParameter, Materials
 
+from .damping import damping_terms, region_stiffness
 from .model import FACTOR_NAMES, Lever, equations, moduli_arrays
+from .second_order import SecondOrderModel, _eig, _modal  # noqa: F401 - their old home
 
 OUTPUTS = ("alpha_rad", "beta_rad", "incus_ux_m")
 #: Units of :data:`OUTPUTS`' amplitudes (at a given pressure amplitude).
 UNITS = {"alpha_rad": "rad", "beta_rad": "rad", "incus_ux_m": "m"}
-
-
-@dataclass(frozen=True)
-class SecondOrderModel:
-    """M q̈ + E q̇ + K(1 + iη) q = B u,  y = C q  (arrays; a leading design axis is allowed).
-
-    ``M``, ``E``, ``K``: (..., n, n); ``B``: (..., n, n_in); ``C``: (..., n_out, n);
-    ``loss_factor`` η (dimensionless). SI units throughout.
-    """
-
-    M: np.ndarray
-    E: np.ndarray
-    K: np.ndarray
-    B: np.ndarray
-    C: np.ndarray
-    loss_factor: float = 0.0
-
-    def freq_resp(self, freq_hz) -> np.ndarray:
-        """Transfer function C (K(1+iη) + iωE − ω²M)⁻¹ B at ``freq_hz`` (Hz).
-
-        Returns (n_freq, n_out, n_in), or (n_design, n_freq, n_out, n_in) for batched matrices.
-
-        With proportional damping (E diagonal in the undamped modes, as Rayleigh damping is) and
-        M positive definite, the response is summed over all the modes (exact): below the first
-        natural frequency as the static response C (K(1+iη))⁻¹ B from a direct solve plus each
-        mode's dynamic part (so that ω = 0 is the static solve), above it as the plain modal
-        sum; otherwise one dense solve per design and frequency.
-        """
-        f = check_frequencies(freq_hz)
-        w = 2 * np.pi * f
-        batched = self.M.ndim == 3
-        M, E, K, B, C = (x if batched else x[None] for x in (self.M, self.E, self.K, self.B, self.C))
-        modal = _modal(M, E, K)
-        eta = 1 + 1j * self.loss_factor
-        if modal is not None:
-            w2, Phi, e_m = modal  # (d, n), (d, n, n), (d, n)
-            cphi = np.einsum("dij,djm->dim", C, Phi)
-            phib = np.einsum("djm,djk->dmk", Phi, B)
-            k_m = w2[:, None, :] * eta  # (d, 1, n)
-            iwe = 1j * w[None, :, None] * e_m[:, None, :]
-            den = k_m + iwe - (w**2)[None, :, None]  # (d, f, n)
-            # below the first mode: the static solve plus each mode's dynamic part, 1/den − 1/k_m
-            # written without cancellation; above it: the plain modal sum
-            static = np.einsum("dij,djk->dik", C, np.linalg.solve(K, B)) / eta  # (d, n_out, n_in)
-            below = (w**2)[None, :] < w2[:, :1]  # (d, f)
-            part = np.where(below[..., None], ((w**2)[None, :, None] - iwe) / (den * k_m), 1 / den)
-            H = np.einsum("dim,dfm,dmk->dfik", cphi, part, phib, optimize=True)
-            H = np.where(below[..., None, None], static[:, None] + H, H)
-            return H if batched else H[0]
-        # (design, freq, n, n): one small dense solve per design and frequency, vectorised
-        Z = (
-            K[:, None] * eta
-            + 1j * w[None, :, None, None] * E[:, None]
-            - (w**2)[None, :, None, None] * M[:, None]
-        )
-        X = np.linalg.solve(Z, np.broadcast_to(B[:, None], Z.shape[:2] + B.shape[-2:]).astype(complex))
-        H = np.einsum("dij,dfjk->dfik", C, X)
-        return H if batched else H[0]
-
-    def poles(self) -> tuple[np.ndarray, np.ndarray]:
-        """Natural frequencies (Hz) and damping ratios of the modes, sorted by frequency.
-
-        Undamped natural frequencies from K φ = ω² M φ; damping ratios from the
-        modal damping φᵀEφ / (2 ω φᵀMφ) plus η/2 (exact for proportional damping).
-        """
-        batched = self.M.ndim == 3
-        M, E, K = (x if batched else x[None] for x in (self.M, self.E, self.K))
-        w2, Phi = _eig(M, K)
-        w = np.sqrt(np.maximum(w2, 0))
-        modal_e = np.einsum("dim,dij,djm->dm", Phi, E, Phi)
-        zeta = modal_e / (2 * w) + self.loss_factor / 2
-        f = w / (2 * np.pi)
-        return (f, zeta) if batched else (f[0], zeta[0])
-
-
-def _eig(M, K) -> tuple[np.ndarray, np.ndarray]:
-    """Undamped modes of (d, n, n) stacks: ω² (d, n) ascending, Φ (d, n, n) with Φᵀ M Φ = I.
-
-    The coordinates are first scaled to a unit mass diagonal (they mix metres and radians), then
-    the symmetric-definite problem is reduced by a Cholesky factor of M; raises
-    ``numpy.linalg.LinAlgError`` when M is not positive definite.
-    """
-    d = 1 / np.sqrt(np.abs(np.diagonal(M, axis1=-2, axis2=-1)))  # (d, n)
-    S = d[:, :, None] * d[:, None, :]
-    Li = np.linalg.inv(np.linalg.cholesky(M * S))
-    A = Li @ (K * S) @ np.swapaxes(Li, -1, -2)
-    w2, Y = np.linalg.eigh((A + np.swapaxes(A, -1, -2)) / 2)
-    return w2, d[:, :, None] * (np.swapaxes(Li, -1, -2) @ Y)
-
-
-def _modal(M, E, K):
-    """(ω², Φ, diag ΦᵀEΦ) when M is positive definite and E is diagonal in the modes; else None."""
-    if not np.all(np.isfinite(M)) or np.any(np.diagonal(M, axis1=-2, axis2=-1) <= 0):
-        return None
-    try:
-        w2, Phi = _eig(M, K)
-    except np.linalg.LinAlgError:
-        return None
-    if np.any(w2 <= 0):
-        return None
-    Em = np.swapaxes(Phi, -1, -2) @ E @ Phi
-    diag = np.diagonal(Em, axis1=-2, axis2=-1)
-    off = Em - diag[:, :, None] * np.eye(Em.shape[-1])
-    scale = np.sqrt(np.abs(diag[:, :, None] * diag[:, None, :])) + 1e-12 * np.abs(diag).max(-1)[:, None, None]
-    if np.any(np.abs(off) > 1e-9 * scale):
-        return None
-    return w2, Phi, diag
 
 
 #: Coordinates of :func:`chain_model`, in order (m, rad, rad, rad, m, rad, rad, m).
@@ -230,12 +126,13 @@ def _timoshenko(e_pa, factor, wx, wy, length, nu) -> np.ndarray:
     (rectangle); Φ = 12 EI / (κ G A L²); K = EI / ((1 + Φ) L³) [[12, −6L], [−6L, (4 + Φ) L²]]. Units:
     N/m, N, N·m/rad.
     """
-    e = np.atleast_1d(np.asarray(e_pa, dtype=float))
+    e = np.atleast_1d(np.asarray(e_pa))
+    e = e.astype(np.result_type(e.dtype, float))  # complex moduli (complex step) stay complex
     ei = e * wy * wx**3 / 12 / factor
     kappa = 10 * (1 + nu) / (12 + 11 * nu)
     phi = 12 * ei / (kappa * e / (2 * (1 + nu)) * wx * wy * length**2)
     L = length
-    out = np.empty(e.shape + (2, 2))
+    out = np.empty(e.shape + (2, 2), dtype=e.dtype)
     c = ei / ((1 + phi) * L**3)
     out[..., 0, 0] = 12 * c
     out[..., 0, 1] = out[..., 1, 0] = -6 * L * c
@@ -271,9 +168,13 @@ def chain_stiffness(
     if not np.isfinite(shear_factor) or shear_factor <= 0:
         raise InvalidParameter(f"shear_factor = {shear_factor!r}: must be a finite number > 0")
     g = geometry or Geometry()
-    nu = (materials or Materials()).nu
+    return _springs(factors, shear_factor, g, (materials or Materials()).nu, moduli_arrays(**moduli))
+
+
+def _springs(factors, shear_factor: float, g: Geometry, nu: float, E: dict) -> ChainStiffness:
+    """:func:`chain_stiffness` on checked moduli arrays ``E``; plain arithmetic, so complex moduli
+    (the complex step of :func:`isj.lumped.damping.region_stiffness`) give complex springs."""
     lever = Lever.from_geometry(g)
-    E = moduli_arrays(**moduli)
     fac = np.asarray(factors, dtype=float)
     f = dict(zip(FACTOR_NAMES, fac, strict=True))
     a_pa, b_pa = equations(E, fac, lever)
@@ -346,10 +247,15 @@ def joint_coupling(
     JointCoupling, arrays with leading axis n_design
     """
     g = geometry or Geometry()
-    st = chain_stiffness(factors, DEFAULT_SHEAR_FACTOR, g, materials, **moduli)
+    return _coupling(factors, g, (materials or Materials()).nu, moduli_arrays(**moduli))
+
+
+def _coupling(factors, g: Geometry, nu: float, E: dict) -> JointCoupling:
+    """:func:`joint_coupling` on checked moduli arrays ``E`` (complex allowed: plain arithmetic)."""
+    st = _springs(factors, DEFAULT_SHEAR_FACTOR, g, nu, E)
     lv = _levels(g)
     nd = st.k_joint.size
-    K = np.zeros((nd, 5, 5))
+    K = np.zeros((nd, 5, 5), dtype=st.k_joint.dtype)
     K[:, 0, 0] = st.k_joint
     K[:, 1, 1] = 1 / st.c_root
     K[:, 2:4, 2:4] = st.beam
@@ -402,32 +308,52 @@ def chain_shapes(z, geometry: Geometry | None = None) -> tuple[np.ndarray, np.nd
     return gu, gr
 
 
-def chain_mass(geometry: Geometry | None = None, materials: Materials | None = None) -> np.ndarray:
+def chain_mass(
+    geometry: Geometry | None = None, materials: Materials | None = None, per_region: bool = False
+):
     """Consistent 8 × 8 mass of :data:`COORDINATES` (kg, kg·m, kg·m²); independent of the moduli.
 
     ∫ ρ A (g gᵀ + w_x²/12 h hᵀ) dz over the stapes head, the gap, the plate, the pedicle and the
     incus block (g, h from :func:`chain_shapes`), by Gauss–Legendre quadrature (exact).
+    ``per_region``: a dict region → its bodies' mass instead (the capsule's is left out).
     """
     g = geometry or Geometry()
     mat = materials or Materials()
     rho_b, rho_s = mat.bone_density_kg_m3, mat.soft_density_kg_m3
     jx, jy, z_j = g.joint_x_m, g.joint_y_m, _levels(g)["j"]
-    bodies = [  # (density, w_x, w_y, z0, z1): no body straddles a kink of the shapes
-        (rho_b, jx, jy, 0.0, g.z_gap),  # stapes head
-        (rho_s, jx, jy, g.z_gap, z_j),  # lower half of the gap
-        (rho_s, jx, jy, z_j, g.z_plate),  # upper half of the gap
-        (rho_b, jx, jy, g.z_plate, g.z_pedicle),  # plate
-        (rho_b, g.pedicle_x_m, g.pedicle_y_m, g.z_pedicle, g.z_incus),  # pedicle
-        (rho_b, g.incus_x_m, g.incus_y_m, g.z_incus, g.z_top),  # incus block
+    bodies = [  # (region, density, w_x, w_y, z0, z1): no body straddles a kink of the shapes
+        ("stapes", rho_b, jx, jy, 0.0, g.z_gap),  # stapes head
+        ("gap", rho_s, jx, jy, g.z_gap, z_j),  # lower half of the gap
+        ("gap", rho_s, jx, jy, z_j, g.z_plate),  # upper half of the gap
+        ("plate", rho_b, jx, jy, g.z_plate, g.z_pedicle),
+        ("pedicle", rho_b, g.pedicle_x_m, g.pedicle_y_m, g.z_pedicle, g.z_incus),
+        ("incus", rho_b, g.incus_x_m, g.incus_y_m, g.z_incus, g.z_top),  # incus block
     ]
     x, w = np.polynomial.legendre.leggauss(_GAUSS_POINTS)
-    M = np.zeros((8, 8))
-    for rho, wx, wy, z0, z1 in bodies:
+    parts = {}
+    for region, rho, wx, wy, z0, z1 in bodies:
         zq = (z0 + z1) / 2 + (z1 - z0) / 2 * x
         dz = rho * wx * wy * (z1 - z0) / 2 * w
         gu, gr = chain_shapes(zq, g)
-        M += np.einsum("q,qi,qj->ij", dz, gu, gu) + wx**2 / 12 * np.einsum("q,qi,qj->ij", dz, gr, gr)
+        Mi = np.einsum("q,qi,qj->ij", dz, gu, gu) + wx**2 / 12 * np.einsum("q,qi,qj->ij", dz, gr, gr)
+        parts[region] = parts.get(region, 0.0) + Mi
+    if per_region:
+        return {r: (m + m.T) / 2 for r, m in parts.items()}
+    M = sum(parts.values())
     return (M + M.T) / 2  # exactly symmetric
+
+
+def _chain_stiffness_matrix(st: ChainStiffness) -> np.ndarray:
+    """(n_design, 8, 8) stiffness of :data:`COORDINATES` from the springs (complex springs allowed)."""
+    nd = st.k_joint.size
+    K = np.zeros((nd, 8, 8), dtype=np.result_type(st.k_joint, st.stapes, float))
+    K[:, 0:2, 0:2] = st.stapes
+    K[:, 2, 2] = st.k_joint
+    K[:, 3, 3] = 1 / st.c_root
+    K[:, 4:6, 4:6] = st.beam
+    K[:, 6, 6] = 1 / st.c_top
+    K[:, 7, 7] = st.k_shear
+    return K
 
 
 def chain_model(
@@ -435,9 +361,11 @@ def chain_model(
     shear_factor: float = DEFAULT_SHEAR_FACTOR,
     geometry: Geometry | None = None,
     materials: Materials | None = None,
-    rayleigh_a_per_s: float = 0.0,
-    rayleigh_b_s: float = 1e-4,
-    loss_factor: float = 0.0,
+    rayleigh_a_per_s=None,
+    rayleigh_b_s=None,
+    loss_factor=None,
+    *,
+    damping: Damping | str | None = None,
     **moduli,
 ) -> SecondOrderModel:
     """The eight-coordinate chain (module docstring) for one or many designs.
@@ -448,26 +376,40 @@ def chain_model(
     shear_factor : the joint shear factor f_shear (dimensionless; calibrated to FE second in-plane
         natural frequencies by :func:`calibration.pipeline.fit_shear`)
     geometry, materials : dimensions (m); ν and densities (kg/m³) from ``materials``
-    rayleigh_a_per_s, rayleigh_b_s : Rayleigh damping E = a M + b K (1/s, s)
-    loss_factor : structural loss factor η (dimensionless)
+    damping : :class:`isj.damping.Damping` or a preset name (default: the published loss factors
+        per region, docs/dynamics.md §4.3)
+    rayleigh_a_per_s, rayleigh_b_s, loss_factor : changes to ``damping`` (1/s, s, dimensionless):
+        a number for every region or a mapping region → value; None leaves it
     **moduli : Young's moduli (Pa), floats or broadcastable arrays (``lumped.model.MODULI``);
         floats only (or none): one design, no design axis
 
     Returns
     -------
-    SecondOrderModel : input the pressure (Pa), outputs :data:`OUTPUTS` (rad, rad, m)
+    SecondOrderModel : input the pressure (Pa), outputs :data:`OUTPUTS` (rad, rad, m); each spring
+    with the loss factors and Rayleigh b of the regions that set it (``K_loss`` and ``E``), each
+    body's mass with its region's Rayleigh a
     """
     g = geometry or Geometry()
-    st = chain_stiffness(factors, shear_factor, g, materials, **moduli)
-    nd = st.k_joint.size
-    K = np.zeros((nd, 8, 8))
-    K[:, 0:2, 0:2] = st.stapes
-    K[:, 2, 2] = st.k_joint
-    K[:, 3, 3] = 1 / st.c_root
-    K[:, 4:6, 4:6] = st.beam
-    K[:, 6, 6] = 1 / st.c_top
-    K[:, 7, 7] = st.k_shear
+    d = resolve(
+        damping, rayleigh_a_per_s=rayleigh_a_per_s, rayleigh_b_s=rayleigh_b_s, loss_factor=loss_factor
+    )
+    nu = (materials or Materials()).nu
+    E = moduli_arrays(**moduli)
+    K = _chain_stiffness_matrix(_springs(factors, shear_factor, g, nu, E))
+    nd = K.shape[0]
     M = np.broadcast_to(chain_mass(g, materials), (nd, 8, 8)).copy()
+    uniform = d.uniform_values(REGIONS)
+    if uniform is not None:  # one η, a and b for every region: proportional, no split needed
+        a, b, eta = uniform
+        Ed, K_loss = a * M + b * K, eta * K
+    else:
+        parts = region_stiffness(
+            lambda Ec: _chain_stiffness_matrix(_springs(factors, shear_factor, g, nu, Ec)), E
+        )
+        masses = {
+            r: np.broadcast_to(m, (nd, 8, 8)) for r, m in chain_mass(g, materials, per_region=True).items()
+        }
+        Ed, K_loss = damping_terms(d, parts, masses)
     g_load = chain_shapes([_levels(g)["load"]], g)[0][0]  # u_x at the load centroid per unit q
     force = Lever.from_geometry(g).force_per_pa
     Bm = np.broadcast_to((force * g_load)[:, None], (nd, 8, 1)).copy()
@@ -477,13 +419,10 @@ def chain_model(
     C[2] = g_load
     Cm = np.broadcast_to(C, (nd, 3, 8)).copy()
     if all(np.ndim(v) == 0 for v in moduli.values()):  # one design: no design axis
-        M, K, Bm, Cm = M[0], K[0], Bm[0], Cm[0]
-    return SecondOrderModel(
-        M=M, E=rayleigh_a_per_s * M + rayleigh_b_s * K, K=K, B=Bm, C=Cm, loss_factor=loss_factor
-    )
+        M, K, Ed, K_loss, Bm, Cm = M[0], K[0], Ed[0], K_loss[0], Bm[0], Cm[0]
+    return SecondOrderModel(M=M, E=Ed, K=K, B=Bm, C=Cm, K_loss=K_loss)
 
 
 def frequency_response(model: SecondOrderModel, freq_hz, pressure_pa: float = DEFAULT_PRESSURE_PA):
     """Complex α, β (rad) and incus u_x (m) at ``freq_hz`` for a pressure amplitude (Pa)."""
     return model.freq_resp(freq_hz)[..., 0] * pressure_pa
-

@@ -48,8 +48,14 @@ reference point, radius of gyration 1.0 mm (estimate); stapes 0.5 mg (estimate),
 centroid 0.3 of the crura's height above the footplate, radius of gyration 0.4 mm
 (estimate); the pedicle-and-joint regions (micrograms) are neglected.
 
-Damping as :mod:`lumped.dynamics`: Rayleigh E = a M + b K (docs/dynamics.md §4.3 defaults
-a = 0, b = 1e-4 s) and/or a loss factor η.
+Damping per part (:class:`isj.damping.Damping`, docs/dynamics.md §4.3; defaults: the published
+loss factors): the drum's condensed stiffness and its uncoupled shape take the eardrum's loss
+factor and Rayleigh b, the ligament springs their sets', the annular springs the annular
+ligament's, the condensed joint the joint regions' in proportion to their share of it
+(:mod:`isj.lumped.damping`); the cochlear resistance R = Z_C A² is a dashpot along the piston
+direction, R/n at each of the n annular springs, as in the FE ear. Rayleigh a: the drum's mass
+takes the eardrum's, the malleus–incus body the incus's, the whole stapes (footplate
+included) the stapes's.
 
 Outputs per Pa (:data:`OUTPUTS`): the umbo's displacement along its static
 direction of motion (m; its static value is the magnitude of the umbo's
@@ -65,12 +71,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from isj.design import Geometry, InvalidParameter
+from isj.damping import Damping, resolve
+from isj.design import Geometry, InvalidParameter, Materials
 from isj.ear import EarGeometry, EarMasses, EarMaterials
 from isj.kinematics import grounded_springs, point_map, rigid_mass
 from isj.validate import check_frequencies
 
-from .dynamics import SecondOrderModel, joint_coupling
+from .damping import damping_terms, region_stiffness
+from .dynamics import SecondOrderModel, _coupling, joint_coupling
+from .model import moduli_arrays
 
 OUTPUTS = ("umbo_m", "stapes_m", "alpha_rad", "beta_rad")
 UNITS = {"umbo_m": "m/Pa", "stapes_m": "m/Pa", "alpha_rad": "rad/Pa", "beta_rad": "rad/Pa"}
@@ -249,9 +258,10 @@ def ear_model(
     masses: EarMasses | None = None,
     rigid_joint: bool = False,
     body: str = "rigid",
-    rayleigh_a_per_s: float = 0.0,
-    rayleigh_b_s: float = 1e-4,
-    loss_factor: float = 0.0,
+    rayleigh_a_per_s=None,
+    rayleigh_b_s=None,
+    loss_factor=None,
+    damping: Damping | str | None = None,
     **moduli,
 ) -> LumpedEar:
     """Assemble the lumped ear (see the module docstring) for one design or arrays of moduli.
@@ -270,7 +280,10 @@ def ear_model(
         its densities are not read: the drum's mass is ``eardrum``'s, the footplate is in ``stapes_kg``)
     rigid_joint : no α, β coordinates (a rigid incus–stapes connection)
     body : "rigid" (six dofs) or "rotation" (one rotation about the nominal axis)
-    rayleigh_a_per_s, rayleigh_b_s, loss_factor : damping (1/s, s, dimensionless), docs/dynamics.md §4.3
+    damping : :class:`isj.damping.Damping` or a preset name (default: the published loss factors,
+        docs/dynamics.md §4.3)
+    rayleigh_a_per_s, rayleigh_b_s, loss_factor : changes to ``damping`` (1/s, s, dimensionless): a
+        number for every part or a mapping name → value; None leaves it
     **moduli : the joint model's moduli (Pa), floats or broadcastable arrays (``lumped.model.MODULI``)
     """
     g = geometry or EarGeometry()
@@ -280,11 +293,9 @@ def ear_model(
     ms = masses or EarMasses()
     if body not in ("rigid", "rotation"):
         raise InvalidParameter(f"body = {body!r}: must be 'rigid' or 'rotation'")
-    for name, v in (("rayleigh_a_per_s", rayleigh_a_per_s), ("rayleigh_b_s", rayleigh_b_s)):
-        if not np.isfinite(v) or v < 0:
-            raise InvalidParameter(f"{name} = {v!r}: must be a finite number >= 0")
-    if not np.isfinite(loss_factor) or loss_factor < 0:
-        raise InvalidParameter(f"loss_factor = {loss_factor!r}: must be a finite number >= 0")
+    dmp = resolve(
+        damping, rayleigh_a_per_s=rayleigh_a_per_s, rayleigh_b_s=rayleigh_b_s, loss_factor=loss_factor
+    )
     g = g.for_joint(jg)  # any stack height the joint model accepts: the ear takes its length
     x_b = np.asarray(g.body_reference_m, dtype=float)
     if np.linalg.norm(np.asarray(drum.reference_m) - x_b) > 1e-9:
@@ -335,16 +346,11 @@ def ear_model(
         stapes_map[:, :, ia : ia + 2] = per_d @ coupling.motion
     stapes_t = np.swapaxes(stapes_map, -1, -2)
 
-    # ---- stiffness
+    # ---- stiffness, per part (the damping's parts: docs/dynamics.md §4.3)
     pts = np.array([g.malleus_ligament_m, g.incudal_lateral_m, g.incudal_medial_m])
-    k3 = np.array(
-        [
-            mat.malleus_ligament_n_m / 3 * np.eye(3),
-            mat.incudal_lateral_n_m * np.eye(3),
-            mat.incudal_medial_n_m * np.eye(3),
-        ]
-    )
-    K_body = grounded_springs(x_b, pts, k3) + np.asarray(drum.stiffness)
+    eye = np.eye(3)
+    k_mallear = np.array([mat.malleus_ligament_n_m / 3 * eye, 0 * eye, 0 * eye])
+    k_incudal = np.array([0 * eye, mat.incudal_lateral_n_m * eye, mat.incudal_medial_n_m * eye])
     nrm = np.asarray(g.piston_direction)
     long_m, short_m = g.footplate_semi_axes_m
     e_long = np.asarray(g.footplate_long_axis)
@@ -354,25 +360,59 @@ def ear_model(
     k_ann = mat.annular_out_of_plane_n_m * np.outer(nrm, nrm) + mat.annular_in_plane_n_m * (
         np.eye(3) - np.outer(nrm, nrm)
     )
-    K_stapes = grounded_springs(F, outline, np.broadcast_to(k_ann, (len(outline), 3, 3)))
     area_ring = np.pi * g.drum_semi_axis_manubrium_m * g.drum_semi_axis_transverse_m
-    K = body_map.T @ K_body @ body_map + stapes_t @ K_stapes @ stapes_map  # (nd, n, n)
-    K[:, iw, iw] += area_ring**2 / drum.compliance_m3_per_pa
+
+    def on_body(K6):
+        return np.broadcast_to(body_map.T @ K6 @ body_map, (nd, n, n))
+
+    def on_stapes(k3x3):  # grounded springs of 3 × 3 stiffness k3x3 at every outline point
+        return (
+            stapes_t @ grounded_springs(F, outline, np.broadcast_to(k3x3, (len(outline), 3, 3))) @ stapes_map
+        )
+
+    K_drum = on_body(np.asarray(drum.stiffness)).copy()
+    K_drum[:, iw, iw] += area_ring**2 / drum.compliance_m3_per_pa
+    parts = {
+        "eardrum": K_drum,
+        "mallear_ligament": on_body(grounded_springs(x_b, pts, k_mallear)),
+        "incudal_ligaments": on_body(grounded_springs(x_b, pts, k_incudal)),
+        "annular_ligament": on_stapes(k_ann),
+    }
+    K = sum(parts.values())
     if joint:
+        K = K.copy()
         K[:, ia : ia + 2, ia : ia + 2] += coupling.stiffness
+    # the cochlea: R = Z_C A² along the piston direction, R/n at each annular spring
+    dash = on_stapes(dmp.cochlear_resistance_n_s_m(g.footplate_area_m2) / len(outline) * np.outer(nrm, nrm))
 
     # ---- mass
     centroid = np.asarray(ms.malleus_incus_centroid(g), dtype=float)
-    M_body = np.asarray(drum.mass) + rigid_mass(
-        ms.malleus_incus_kg, ms.malleus_incus_gyration_m, centroid, x_b
-    )
+    M_ossicle = rigid_mass(ms.malleus_incus_kg, ms.malleus_incus_gyration_m, centroid, x_b)
     c_s = np.asarray(ms.stapes_centroid(g), dtype=float)
-    M = body_map.T @ M_body @ body_map
-    M = M + stapes_t @ rigid_mass(ms.stapes_kg, ms.stapes_gyration_m, c_s, F) @ stapes_map  # (nd, n, n)
+    M_drum = on_body(np.asarray(drum.mass)).copy()
     cross = body_map.T @ np.asarray(drum.cross_mass) * area_ring
-    M[:, :, iw] += cross
-    M[:, iw, :] += cross
-    M[:, iw, iw] += drum.uncoupled_mass_kg_m4 * area_ring**2
+    M_drum[:, :, iw] += cross
+    M_drum[:, iw, :] += cross
+    M_drum[:, iw, iw] += drum.uncoupled_mass_kg_m4 * area_ring**2
+    masses = {
+        "eardrum": M_drum,
+        "incus": on_body(M_ossicle),
+        "stapes": stapes_t @ rigid_mass(ms.stapes_kg, ms.stapes_gyration_m, c_s, F) @ stapes_map,
+    }
+    M = sum(masses.values())  # (nd, n, n)
+
+    # ---- damping
+    if joint:
+        nu = Materials().nu  # as joint_coupling's
+
+        def coupling_stiffness(Ec):
+            return _coupling(factors, jg, nu, Ec).stiffness
+
+        for r, Kr in region_stiffness(coupling_stiffness, moduli_arrays(**moduli)).items():
+            Kf = np.zeros((nd, n, n))
+            Kf[:, ia : ia + 2, ia : ia + 2] = Kr
+            parts[r] = Kf
+    E_visc, K_loss = damping_terms(dmp, parts, masses, dash)
 
     # ---- load and outputs
     Bq = np.zeros((n, 1))
@@ -391,8 +431,7 @@ def ear_model(
     Mb = M
     Bb = np.broadcast_to(Bq, (nd, n, 1)).copy()
     if single:
-        K, Mb, Bb, C, d_umbo = K[0], Mb[0], Bb[0], C[0], d_umbo[0]
-    system = SecondOrderModel(
-        M=Mb, E=rayleigh_a_per_s * Mb + rayleigh_b_s * K, K=K, B=Bb, C=C, loss_factor=loss_factor
-    )
+        K, Mb, E_visc, K_loss = K[0], Mb[0], E_visc[0], K_loss[0]
+        Bb, C, d_umbo = Bb[0], C[0], d_umbo[0]
+    system = SecondOrderModel(M=Mb, E=E_visc, K=K, B=Bb, C=C, K_loss=K_loss)
     return LumpedEar(system=system, coordinates=tuple(names), umbo_direction=d_umbo)

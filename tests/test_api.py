@@ -188,15 +188,17 @@ def test_chain_response_is_isj_sweep_bit_for_bit(lm, tmp_path):
 
 def test_chain_response_static_limit_and_batch(lm):
     m = isj.Materials(gap_e_pa=3e6)
-    r = lm.chain_response([0.0, 1e3], m)
+    d = isj.Damping.uniform(loss_factor=0.1)
+    r = lm.chain_response([0.0, 1e3], m, damping=d)
     s = lm.static(m)
-    # 0 Hz is the static solve: the calibrated α and β (the damping does not act at ω = 0)
-    assert r["alpha_rad"][0] == pytest.approx(float(s.alpha_rad), rel=1e-12)
-    assert r["beta_rad"][0] == pytest.approx(float(s.beta_rad), rel=1e-12)
+    # 0 Hz is the static solve: the calibrated α and β, over 1 + iη with one loss factor everywhere
+    assert r["alpha_rad"][0] == pytest.approx(float(s.alpha_rad) / (1 + 0.1j), rel=1e-12)
+    assert r["beta_rad"][0] == pytest.approx(float(s.beta_rad) / (1 + 0.1j), rel=1e-12)
     cal = default_calibration()
-    ref = chain_model(cal.factor_array(), cal.shear_factor, materials=m, **{k: getattr(m, k) for k in MODULI})
+    moduli = {k: getattr(m, k) for k in MODULI}
+    ref = chain_model(cal.factor_array(), cal.shear_factor, materials=m, damping=d, **moduli)
     assert np.array_equal(r.response[..., 0], frequency_response(ref, [0.0, 1e3]))
-    many = lm.chain(gap_e_pa=np.array([3e6, 30e6])).freq_resp([1e3])
+    many = lm.chain(gap_e_pa=np.array([3e6, 30e6]), damping=d).freq_resp([1e3])
     assert many.shape == (2, 1, 3, 1)
     assert np.allclose(many[0, :, :, 0] * isj.DEFAULT_PRESSURE_PA, r.response[1:, :, 0], rtol=1e-12)
     f_nat = lm.natural_frequencies_hz(m)
@@ -335,13 +337,14 @@ def test_fe_harmonic_response_is_harmonic_outputs(coarse_model):
 
     m = isj.Materials(capsule_e_pa=80e6)
     f = [0.0, 3000.0]
-    r = coarse_model.frequency_response(f, m)
-    ref = harmonic_outputs(coarse_model, f, m)
+    d = isj.Damping.uniform(loss_factor=0.1)
+    r = coarse_model.frequency_response(f, m, d)
+    ref = harmonic_outputs(coarse_model, f, m, d)
     assert r.output_names == ("alpha_rad", "beta_rad", "incus_ux_m") and r.shape == (2, 3, 1)
     for k in r.output_names:
         assert np.allclose(r[k], ref[k], rtol=1e-10, atol=0)  # one solve each: Lanczos reductions only
     s = coarse_model.solve(m)
-    assert r["alpha_rad"][0] == pytest.approx(s.alpha_rad, rel=1e-8)  # 0 Hz: the static solve
+    assert r["alpha_rad"][0] == pytest.approx(s.alpha_rad / (1 + 0.1j), rel=1e-8)  # 0 Hz: static / (1 + iη)
     lumped = isj.LumpedModel.default().chain_response(f, m)
     assert lumped.output_names == r.output_names and lumped.output_units == r.output_units
 

@@ -296,7 +296,6 @@ def _ear_dynamics():
     return ear_dynamics
 
 
-UNDAMPED = dict(rayleigh_a_per_s=0.0, rayleigh_b_s=0.0, loss_factor=0.0)
 
 
 def _expected_total_mass(model, materials=None):
@@ -365,7 +364,7 @@ def test_reduced_mass_is_symmetric_and_on_the_stiffness_pattern(variant, request
 def test_undamped_response_at_1_hz_is_the_static_one(variant, request):
     model = request.getfixturevalue(variant)
     ed = _ear_dynamics()
-    r = model.harmonic(1.0, damping=ed.EarDamping(**UNDAMPED))
+    r = model.harmonic(1.0, damping=ed.EarDamping.preset("undamped"))
     s = r.static
     assert r.umbo_m_per_pa[0] == pytest.approx(s.umbo_m_per_pa, rel=1e-6)
     assert r.stapes_m_per_pa[0] == pytest.approx(s.footplate_piston_m_per_pa, rel=1e-6)
@@ -381,7 +380,7 @@ def test_loss_factor_alone_divides_the_static_response(variant, request):
     model = request.getfixturevalue(variant)
     ed = _ear_dynamics()
     eta = 0.3
-    r = model.harmonic(0.0, damping=ed.EarDamping(0.0, 0.0, eta))
+    r = model.harmonic(0.0, damping=ed.EarDamping.uniform(loss_factor=eta))
     s = r.static
     expected = np.array([s.umbo_m_per_pa, s.footplate_piston_m_per_pa]) / (1 + 1j * eta)
     np.testing.assert_allclose(r.outputs()[0, :2], expected, rtol=1e-9)
@@ -389,7 +388,7 @@ def test_loss_factor_alone_divides_the_static_response(variant, request):
         assert r.alpha_rad_per_pa[0] == pytest.approx(s.alpha_rad_per_pa / (1 + 1j * eta), rel=1e-9)
     # Rayleigh b alone at 1 Hz: static / (1 + iωb) up to the inertia term (≈ 4e-7)
     b = 1e-4
-    r = model.harmonic(1.0, damping=ed.EarDamping(0.0, b, 0.0))
+    r = model.harmonic(1.0, damping=ed.EarDamping.uniform(rayleigh_b_s=b))
     assert r.umbo_m_per_pa[0] == pytest.approx(s.umbo_m_per_pa / (1 + 2j * np.pi * b), rel=2e-6)
 
 

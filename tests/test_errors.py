@@ -25,6 +25,7 @@ WARNINGS = [
     "OutOfDomainWarning",
     "CalibrationWarning",
     "VolumetricLockingWarning",
+    "DampingWarning",
 ]
 
 # where each class lived before isj.errors; code that imports it from there must keep working

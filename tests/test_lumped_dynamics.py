@@ -15,6 +15,7 @@ from isj.lumped.dynamics import (
 )
 from isj.lumped.model import FACTOR_NAMES, Lever, static_response
 
+from isj.damping import Damping
 from isj.design import Geometry, Materials
 
 
@@ -51,11 +52,16 @@ def test_static_limit_is_the_calibrated_static_model(shear):
         "plate_e_pa": np.array([1e9, 4e9, 3e8]),
         "stapes_e_pa": np.array([1e9, 3e8, 4e9]),
     }
-    dyn = frequency_response(chain_model(f, shear, **moduli), [0.0], pressure_pa=28.5)
+    dyn = frequency_response(chain_model(f, shear, damping="undamped", **moduli), [0.0], pressure_pa=28.5)
     st = static_response(f, pressure_pa=28.5, **moduli)
     assert np.allclose(dyn[:, 0, 0].real, st.alpha_rad, rtol=1e-12)
     assert np.allclose(dyn[:, 0, 1].real, st.beta_rad, rtol=1e-12)
     assert np.allclose(dyn[:, 0, :2].imag, 0)
+    # one loss factor everywhere, given per region: the static response divided by (1 + iη)
+    eta = dict.fromkeys(("stapes", "gap", "plate", "pedicle", "incus", "capsule"), 0.07)
+    dyn = frequency_response(chain_model(f, shear, damping="undamped", loss_factor=eta, **moduli), [0.0], 28.5)
+    np.testing.assert_allclose(dyn[:, 0, 0], st.alpha_rad / (1 + 0.07j), rtol=1e-12)
+    np.testing.assert_allclose(dyn[:, 0, 1], st.beta_rad / (1 + 0.07j), rtol=1e-12)
 
 
 def test_pedicle_is_a_timoshenko_cantilever_with_the_calibrated_tip_rotation():
@@ -172,10 +178,10 @@ def test_modal_response_equals_the_dense_solve():
     E = np.array([2e9, 5e9, 20e9])
     freq = np.r_[0.0, np.geomspace(100, 2e5, 40)]
     w = 2 * np.pi * freq
-    for kw in ({}, {"loss_factor": 0.05, "rayleigh_a_per_s": 300.0}, {"rayleigh_b_s": 0.0}):
-        m = chain_model(f, 0.8, pedicle_e_pa=E, **kw)
+    for damping in ("uniform-rayleigh", Damping.uniform(300.0, 0.0, 0.05), Damping()):
+        m = chain_model(f, 0.8, pedicle_e_pa=E, damping=damping)
         Z = (
-            m.K[:, None] * (1 + 1j * m.loss_factor)
+            (m.K * (1 + 1j * m.loss_factor) + 1j * m.K_loss)[:, None]
             + 1j * w[None, :, None, None] * m.E[:, None]
             - (w**2)[None, :, None, None] * m.M[:, None]
         )
@@ -193,14 +199,17 @@ def test_many_designs_at_once_equal_one_at_a_time():
     assert np.allclose(many[4], one, rtol=1e-13)
 
 
-def test_low_frequency_roll_off_matches_fe(coarse_model):
-    """α(1 kHz)/α(0) from FE harmonic solves and from the lumped model (Rayleigh b = 1e-4 s)."""
+@pytest.mark.filterwarnings("ignore::isj.errors.DampingWarning")
+@pytest.mark.parametrize("damping", ["uniform-rayleigh", "published"])
+def test_low_frequency_roll_off_matches_fe(coarse_model, damping):
+    """α(1 kHz)/α(0) from FE harmonic solves and from the lumped model (old and new damping)."""
     from isj.fem.dynamics import harmonic
 
-    u = harmonic(coarse_model, [0.0, 1000.0], pressure_pa=1.0)
+    u = harmonic(coarse_model, [0.0, 1000.0], damping=damping, pressure_pa=1.0)
     fe = coarse_model.angles[:2] @ u.T  # rows α, β; columns frequencies
     cal = default_calibration()
-    lum = frequency_response(chain_model(cal.factor_array(), cal.shear_factor), [0.0, 1000.0], 1.0)
+    chain = chain_model(cal.factor_array(), cal.shear_factor, damping=damping)
+    lum = frequency_response(chain, [0.0, 1000.0], 1.0)
     for i in range(2):
         ratio_fe = fe[i, 1] / fe[i, 0]
         ratio_lum = lum[1, i] / lum[0, i]

@@ -2,10 +2,13 @@
 
 On the reduced system of :class:`fem.ear.middle_ear.MiddleEarModel` (u = T q):
 
-    (K_r (1 + iη) + iω (a M_r + b K_r) − ω² M_r) q̂ = f_r p̂,   K_r = Tᵀ K T, M_r = Tᵀ M T,
+    (K_r + i L_r + iω C_r − ω² M_r) q̂ = f_r p̂,   K_r = Tᵀ K T, M_r = Tᵀ M T, ...
 
-the damping of docs/dynamics.md §4.3 (Rayleigh a = 0, b = 1e-4 s by default; loss factor η = 0), f_r
-the reduced load of 1 Pa of ear-canal pressure.
+with the damping of docs/dynamics.md §4.3 per part (:class:`isj.damping.Damping`; default: the
+published loss factors): L = Σ_p η_p K_p over the drum, the footplate, the spring sets and the
+joint model's regions, C = Σ_p (b_p K_p + a_p M_p) plus the cochlear resistance R = Z_C A² as a
+dashpot along the piston direction shared by the annular springs (R/n each); f_r the reduced
+load of 1 Pa of ear-canal pressure.
 
 Mass data (:class:`isj.ear.EarMasses`, the one place the lumped ear
 :mod:`lumped.ear` reads too; all estimates but the bone density):
@@ -43,12 +46,13 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from isj.damping import Damping, resolve, warn_rayleigh_band
 from isj.design import InvalidParameter, Materials
 from isj.ear import EarMasses, EarMaterials
 from isj.kinematics import rigid_mass
 from isj.validate import check_frequencies
 
-from ..dynamics import Damping
+from ..dynamics import region_weighted_data
 from .constraints import rigid_body_modes
 from .shell import ShellMaterial
 from .shell import mass_matrix as shell_mass_matrix
@@ -58,13 +62,14 @@ from .shell import mass_matrix as shell_mass_matrix
 OUTPUTS = ("umbo_m", "stapes_m", "alpha_rad", "beta_rad")
 
 
-@dataclass(frozen=True)
-class EarDamping(Damping):
-    """The isolated model's damping law (docs/dynamics.md §4.3): Rayleigh a (1/s), b (s), loss factor η."""
+#: The ear's damping: :class:`isj.damping.Damping` (its old name here).
+EarDamping = Damping
 
-    @property
-    def damped(self) -> bool:
-        return self.rayleigh_a_per_s > 0 or self.rayleigh_b_s > 0 or self.loss_factor > 0
+
+def damping_parts(model) -> tuple[str, ...]:
+    """The :class:`isj.damping.Damping` names this ear has: shells, spring sets, the joint's regions."""
+    joint = tuple(model.joint.regions) if model.joint is not None else ()
+    return ("eardrum", "footplate", "mallear_ligament", "incudal_ligaments", "annular_ligament") + joint
 
 
 def footplate_mass_matrix(model, ear_materials: EarMaterials | None = None, masses: EarMasses | None = None):
@@ -126,8 +131,15 @@ def full_mass(
     materials: Materials | None = None,
     ear_materials: EarMaterials | None = None,
     masses: EarMasses | None = None,
+    weights=None,
 ) -> sp.csr_matrix:
-    """Unconstrained M (n_full × n_full CSR, SI) of the whole ear, before elimination."""
+    """Unconstrained M (n_full × n_full CSR, SI) of the whole ear, before elimination.
+
+    ``weights``: a factor per part (names of :data:`isj.damping.MASS_PARTS`: ``eardrum``,
+    ``footplate``, the joint's regions; the malleus–incus body takes ``incus``'s, the stapes
+    superstructure ``stapes``'s) for Σ_p w_p M_p, the Rayleigh a term; None: M itself.
+    """
+    w = weights if weights is not None else dict.fromkeys(("eardrum", "footplate", "incus", "stapes"), 1.0)
     g = model.geometry
     em = ear_materials or EarMaterials()
     ms = masses or EarMasses()
@@ -135,8 +147,8 @@ def full_mass(
     parts = []  # (coo block, offset)
     if ms.drum_density_kg_m3 > 0:
         drum = ShellMaterial(em.drum_e_pa, em.drum_nu, em.drum_thickness_m, ms.drum_density_kg_m3)
-        parts.append((shell_mass_matrix(d.nodes_m, d.triangles, drum).tocoo(), model.off_drum))
-    parts.append((footplate_mass_matrix(model, em, ms).tocoo(), model.off_fp))
+        parts.append((w["eardrum"] * shell_mass_matrix(d.nodes_m, d.triangles, drum).tocoo(), model.off_drum))
+    parts.append((w["footplate"] * footplate_mass_matrix(model, em, ms).tocoo(), model.off_fp))
     rows = [p.row.astype(np.int64) + off for p, off in parts]
     cols = [p.col.astype(np.int64) + off for p, off in parts]
     vals = [p.data for p, _ in parts]
@@ -144,10 +156,10 @@ def full_mass(
     x_stapes = np.asarray(g.stapes_head_m) if model.joint is not None else x_body
     st = stapes_rigid_mass(model, em, ms)
     blocks = (
-        (model.body_dofs, rigid_mass(ms.malleus_incus_kg, ms.malleus_incus_gyration_m,
-                                     ms.malleus_incus_centroid(g), x_body)),
-        (model.stapes_dofs, rigid_mass(st["superstructure_kg"], ms.stapes_gyration_m,
-                                       st["superstructure_centroid_m"], x_stapes)),
+        (model.body_dofs, w["incus"] * rigid_mass(ms.malleus_incus_kg, ms.malleus_incus_gyration_m,
+                                                  ms.malleus_incus_centroid(g), x_body)),
+        (model.stapes_dofs, w["stapes"] * rigid_mass(st["superstructure_kg"], ms.stapes_gyration_m,
+                                                     st["superstructure_centroid_m"], x_stapes)),
     )  # fmt: skip
     for dofs, M6 in blocks:
         rows.append(np.repeat(dofs, 6))
@@ -155,7 +167,8 @@ def full_mass(
         vals.append(M6.ravel())
     if model.joint is not None:
         j = model.joint
-        vals.append(j.mass_data(materials or Materials()))
+        mat = materials or Materials()
+        vals.append(j.mass_data(mat) if weights is None else region_weighted_data(j, mat, w, "mass"))
         rows.append(j.pattern.rows().astype(np.int64) + model.off_joint)
         cols.append(j.pattern.indices.astype(np.int64) + model.off_joint)
     M = sp.coo_matrix(
@@ -198,6 +211,40 @@ def reduced_mass(
         cache.clear()  # one entry: a new set of inputs replaces the old
         cache[key] = sp.csr_matrix((data, p.indices, p.indptr), shape=(p.n, p.n))
     return cache[key]
+
+
+def damping_data(
+    model,
+    damping: Damping | str | None = None,
+    materials: Materials | None = None,
+    ear_materials: EarMaterials | None = None,
+    masses: EarMasses | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """L = Σ_p η_p K_p and C = Σ_p (b_p K_p + a_p M_p) + R n nᵀ as data on K's reduced pattern (SI).
+
+    Parts: the drum, the footplate, the three spring sets
+    (:meth:`fem.ear.middle_ear.MiddleEarModel.fixed_parts`) and the joint model's regions; the
+    cochlear resistance R = Z_C A (A the footplate's area) shared by the annular springs along
+    the piston direction. Rayleigh a: the mass of each part (:func:`full_mass`'s ``weights``).
+    """
+    d = resolve(damping)
+    em = ear_materials or EarMaterials()
+    mat = materials or Materials()
+    parts = model.fixed_parts(em)
+    shells = [p for p in parts if p != "cochlea"]
+    r_cochlea = d.cochlear_resistance_n_s_m(model.geometry.footplate_area_m2)
+    vl = [sum(d.loss_factor[p] * parts[p] for p in shells)]
+    vc = [sum(d.rayleigh_b_s[p] * parts[p] for p in shells) + r_cochlea * parts["cochlea"]]
+    if model.joint is not None:
+        vl.append(region_weighted_data(model.joint, mat, d.loss_factor))
+        vc.append(region_weighted_data(model.joint, mat, d.rayleigh_b_s))
+    L, C = (model.pattern.matrix(np.concatenate(v)).data for v in (vl, vc))
+    a = d.rayleigh_a_per_s
+    if any(a[p] > 0 for p in ("eardrum", "footplate", "incus", "stapes", *damping_parts(model)) if p in a):
+        p = model.pattern
+        Ma = (model.T.T @ full_mass(model, mat, em, masses, weights=a) @ model.T).tocsr()
+        C = C + _data_on_pattern(Ma, p.indptr, p.indices)
+    return L, C
 
 
 @dataclass
@@ -283,7 +330,8 @@ def harmonic(
     freq_hz : frequencies (Hz), >= 0
     materials : the embedded joint's moduli and densities (ignored by the rigid joint)
     ear_materials : eardrum, footplate and springs (docs/ear.md §5.8)
-    damping : :class:`EarDamping` (default docs/dynamics.md §4.3: Rayleigh b = 1e-4 s)
+    damping : :class:`isj.damping.Damping` or a preset name (default: the published loss factors
+        per part and the cat cochlear resistance, docs/dynamics.md §4.3)
     masses : :class:`isj.ear.EarMasses` (estimates)
     keep_displacement : keep the full complex dof vectors (n_freq, n_full)
 
@@ -297,18 +345,20 @@ def harmonic(
     freqs = check_frequencies(freq_hz)
     if not np.isfinite(pressure_pa):
         raise InvalidParameter(f"pressure_pa = {pressure_pa!r} Pa: must be a finite number")
-    damping = damping or EarDamping()
+    damping = resolve(damping)
     materials = materials or Materials()
     g = model.geometry
+    names = damping_parts(model)
+    warn_rayleigh_band(damping, float(freqs.min()), float(freqs.max()), names)
+    damped = damping.damped(names)
     t0 = time.perf_counter()
     K = model.stiffness(materials, ear_materials)
     M = reduced_mass(model, materials, ear_materials, masses)
+    L, C = damping_data(model, damping, materials, ear_materials, masses)
     t1 = time.perf_counter()
     t2 = time.perf_counter()
     f = model.load_reduced * pressure_pa
     w = 2 * np.pi * freqs
-    alpha = 1 + 1j * (damping.loss_factor + w * damping.rayleigh_b_s)
-    beta = 1j * w * damping.rayleigh_a_per_s - w**2
     backend = "superlu" if model._solver_name == "superlu" else "auto"
     # the static solver's ordering is not reused: a shared rigid-joint model crashed (SIGSEGV in
     # PARDISO) in tests/test_lumped_ear.py after earlier static solves when it was; a fresh analysis
@@ -318,16 +368,17 @@ def harmonic(
     # the static solution (for the umbo's direction) by the same solver, first: the model's own
     # static PARDISO solver is left alone (mixing it with other PARDISO instances crashed, SIGSEGV,
     # in tests/test_lumped_ear.py)
-    alpha = np.concatenate([[1.0 + 0j], alpha])
-    beta = np.concatenate([[0j], beta])
     try:
-        for i, (al, be) in enumerate(zip(alpha, beta, strict=True)):
-            if damping.damped:
-                Z = sp.csr_matrix((al * K.data + be * M.data, K.indices, K.indptr), shape=K.shape)
+        for i, wi in enumerate(np.concatenate([[None], w])):
+            if i == 0:  # the static solution, K alone
+                data = K.data.astype(complex) if damped else K.data
+            elif damped:  # K + iL + iωC − ω²M: complex symmetric
+                data = K.data + 1j * (L + wi * C) - wi**2 * M.data
             else:  # real symmetric indefinite
-                Z = sp.csr_matrix((K.data + be.real * M.data, K.indices, K.indptr), shape=K.shape)
+                data = K.data - wi**2 * M.data
+            Z = sp.csr_matrix((data, K.indices, K.indptr), shape=K.shape)
             if solver is None:
-                make = make_complex_symmetric_solver if damping.damped else make_indefinite_solver
+                make = make_complex_symmetric_solver if damped else make_indefinite_solver
                 solver = make(Z, backend, perm)
             solver.factor(Z)
             x = np.ravel(solver.solve(f))

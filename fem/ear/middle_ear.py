@@ -285,6 +285,40 @@ class MiddleEarModel:
         body = grounded_springs(g.body_reference_m, pts, k)
         return np.concatenate([kd.ravel(), kf.ravel(), springs, body.ravel()])
 
+    def fixed_parts(self, m: EarMaterials) -> dict[str, np.ndarray]:
+        """:meth:`_fixed_values` split by part: {part: its entries' values, zero elsewhere} (SI).
+
+        Parts (the names of :class:`isj.damping.Damping`): ``eardrum``, ``footplate``,
+        ``annular_ligament``, ``mallear_ligament``, ``incudal_ligaments``; they sum to
+        :meth:`_fixed_values`. Also ``cochlea``: the direction n nᵀ (1 N·s/m in all) of a dashpot
+        along the piston direction shared by the annular springs, to be scaled by R.
+        """
+        vals = self._fixed_values(m)
+        n_out = len(self.footplate.node_sets["outline"])
+        block = (3 * NDOF) ** 2  # one triangle's 18 × 18 stiffness
+        sizes = [len(self.drum.triangles) * block, len(self.footplate.triangles) * block, 9 * n_out, 36]
+        cuts = np.cumsum([0, *sizes])
+        seg = {
+            p: slice(cuts[i], cuts[i + 1])
+            for i, p in enumerate(("eardrum", "footplate", "annular_ligament", "ligaments"))
+        }
+        if cuts[-1] != vals.size:
+            raise RuntimeError("fixed_parts: the value layout of _fixed_values changed")
+        out = {}
+        for p in ("eardrum", "footplate", "annular_ligament"):
+            out[p] = np.zeros_like(vals)
+            out[p][seg[p]] = vals[seg[p]]
+        pts, k = self.ligament_springs(m)
+        for p, rows in (("mallear_ligament", [0]), ("incudal_ligaments", [1, 2])):
+            kk = np.zeros_like(k)
+            kk[rows] = k[rows]
+            out[p] = np.zeros_like(vals)
+            out[p][seg["ligaments"]] = grounded_springs(self.geometry.body_reference_m, pts, kk).ravel()
+        nrm = self.footplate.normal
+        out["cochlea"] = np.zeros_like(vals)
+        out["cochlea"][seg["annular_ligament"]] = np.tile(np.outer(nrm, nrm).ravel() / n_out, n_out)
+        return out
+
     def stiffness(self, materials: Materials | None = None, ear_materials: EarMaterials | None = None):
         """Reduced stiffness Tᵀ K T (CSR, SI) for the joint's and the ear's materials."""
         vals = [self._fixed_values(ear_materials or EarMaterials())]
