@@ -84,3 +84,38 @@ def check_poisson(nu, name: str = "nu") -> float:
     if not number or not math.isfinite(nu) or not -1.0 < nu < 0.5:
         raise InvalidParameter(f"{name} = {nu!r}: Poisson's ratio must be a finite number in (-1, 0.5)")
     return float(nu)
+
+
+#: Young's moduli any region may take (Pa): 1 kPa, softer than any tissue of the middle ear (its
+#: softest, the gap's cartilage and the ligaments, are about 1 MPa), to 1 TPa, about diamond's, so
+#: stiffer than any solid. Outside it a solve has no physical meaning, and past about 1e150 or
+#: below 1e-150 the stiffness matrix overflows or underflows.
+MODULUS_RANGE_PA: tuple[float, float] = (1e3, 1e12)
+#: Static pressures on the incus (Pa): 1 µPa, below the threshold of hearing (20 µPa), to 10 kPa
+#: (174 dB SPL), far past the levels at which the middle ear stays linear; the models are linear
+#: and small-strain, so α and β scale with the pressure and a larger one means nothing.
+PRESSURE_RANGE_PA: tuple[float, float] = (1e-6, 1e4)
+
+
+def _check_in(name: str, value, lo: float, hi: float, unit: str) -> float:
+    number = isinstance(value, int | float) and not isinstance(value, bool)
+    if not number or not math.isfinite(value) or not lo <= value <= hi:
+        raise InvalidParameter(f"{name} = {value!r}: must be a finite number in [{lo:g}, {hi:g}] {unit}")
+    return float(value)
+
+
+def check_modulus(value, name: str = "modulus") -> float:
+    """A Young's modulus (Pa) within :data:`MODULUS_RANGE_PA`, as a float.
+
+    Raises
+    ------
+    InvalidParameter
+        One line naming ``name`` and the range: booleans, non-numbers, non-finite values, and
+        values outside the range.
+    """
+    return _check_in(name, value, *MODULUS_RANGE_PA, "Pa")
+
+
+def check_pressure(value, name: str = "pressure_pa") -> float:
+    """A static pressure (Pa) within :data:`PRESSURE_RANGE_PA`, as a float (see :func:`check_modulus`)."""
+    return _check_in(name, value, *PRESSURE_RANGE_PA, "Pa")

@@ -93,19 +93,23 @@ class Calibration:
             raise CorruptCalibration(f"{source}: factor(s) {', '.join(bad)} not finite and >= 0")
         if any(not (0 < lo <= hi) for lo, hi in domain.values()):
             raise CorruptCalibration(f"{source}: domain bounds must satisfy 0 < low <= high")
-        dynamics = d.get("dynamics", {})
-        if not isinstance(dynamics, dict):
-            raise CorruptCalibration(f"{source}: dynamics must be a JSON object")
+        names = ("training", "validation", "fe_settings", "provenance", "dynamics")
+        sections = {k: d.get(k, {}) for k in names}
+        for k, v in sections.items():
+            if not isinstance(v, dict):
+                raise CorruptCalibration(f"{source}: {k} = {type(v).__name__}, must be a JSON object")
+        dynamics = sections["dynamics"]
         shear = dynamics.get("shear_factor", 1.0)
-        if not isinstance(shear, int | float) or not (math.isfinite(shear) and shear > 0):
+        number = isinstance(shear, int | float) and not isinstance(shear, bool)
+        if not number or not (math.isfinite(shear) and shear > 0):
             raise CorruptCalibration(f"{source}: dynamics.shear_factor = {shear!r}, must be finite and > 0")
         return cls(
             factors=factors,
             domain=domain,
-            training=dict(d.get("training", {})),
-            validation=dict(d.get("validation", {})),
-            fe_settings=dict(d.get("fe_settings", {})),
-            provenance=dict(d.get("provenance", {})),
+            training=dict(sections["training"]),
+            validation=dict(sections["validation"]),
+            fe_settings=dict(sections["fe_settings"]),
+            provenance=dict(sections["provenance"]),
             dynamics=dict(dynamics),
         )
 

@@ -31,6 +31,7 @@ from typing import ClassVar
 from isj.design import DEFAULT_PRESSURE_PA, Geometry, InvalidParameter, Materials
 from isj.ear import EarMaterials
 from isj.errors import ConfigError  # noqa: F401 - re-exported, its old home
+from isj.validate import check_modulus, check_pressure
 
 
 @dataclass(frozen=True)
@@ -212,8 +213,13 @@ def _check(cfg: ReportConfig) -> None:
         if not ok:
             raise ConfigError(f"{where} = {value!r}: {rule}")
 
-    d = cfg.design  # its moduli and ν were checked by Materials on construction
-    need(d.pressure_pa > 0, "design.pressure_pa", d.pressure_pa, "must be > 0 (Pa)")
+    d = cfg.design  # its moduli and ν were checked by Materials on construction; here their ranges
+    try:
+        for k in d.moduli():
+            check_modulus(getattr(d, k), f"design.{k}")
+        check_pressure(d.pressure_pa, "design.pressure_pa")
+    except InvalidParameter as exc:
+        raise ConfigError(str(exc)) from None
     need(cfg.mesh.order in (1, 2), "mesh.order", cfg.mesh.order, "must be 1 or 2")
     need(0.2 <= cfg.mesh.resolution <= 4, "mesh.resolution", cfg.mesh.resolution, "must be in [0.2, 4]")
     t = cfg.trends
@@ -266,7 +272,11 @@ def load_config(path: str | Path | None = None, overrides: list[str] = ()) -> Re
     data: dict[str, dict] = {}
     if path is not None:
         try:
-            data = tomllib.loads(Path(path).read_text())
+            data = tomllib.loads(Path(path).read_text(encoding="utf-8"))
+        except UnicodeDecodeError as exc:
+            raise ConfigError(
+                f"--config {str(path)!r}: not a TOML file (not UTF-8 at byte {exc.start})"
+            ) from None
         except OSError as exc:
             raise ConfigError(f"--config {str(path)!r}: cannot read ({exc.strerror})") from None
         except tomllib.TOMLDecodeError as exc:

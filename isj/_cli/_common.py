@@ -11,13 +11,19 @@ from __future__ import annotations
 import argparse
 import contextlib
 import dataclasses
+import json
 import math
+import os
+import socket
 import sys
+import tempfile
 import warnings
 from pathlib import Path
+from urllib.parse import urlsplit
 
 from isj.design import DEFAULT_PRESSURE_PA, Geometry, Materials
-from isj.errors import IsjWarning, UsageError
+from isj.errors import InvalidParameter, IsjWarning, UsageError
+from isj.validate import MODULUS_RANGE_PA, PRESSURE_RANGE_PA
 
 #: Exit code of a refused command line.
 EXIT_USAGE = 2
@@ -25,11 +31,28 @@ EXIT_USAGE = 2
 #: Regions with a ``--<region>-e`` option, in option order.
 MODULUS_OPTIONS = ("pedicle", "gap", "capsule", "plate", "stapes", "incus")
 
+#: ``--resolution`` (and ``--resolutions``) range: at 0.1 every element is ten times its default
+#: size (coarser than the parts it meshes); 8 would give a P2 joint model of about 18 million
+#: dofs. Inside the range, :func:`check_model_size` refuses a model whose estimated memory
+#: exceeds :data:`isj.fem.sizing.MAX_MODEL_BYTES`.
+RESOLUTION_RANGE = (0.1, 8.0)
+
+#: Largest ``--seed``: numpy's generators take any integer >= 0; 32 bits is far beyond any use.
+MAX_SEED = 2**32 - 1
+
 
 class Parser(argparse.ArgumentParser):
     """ArgumentParser whose errors are one line (``isj: error: ...``) and exit 2."""
 
     def error(self, message: str):  # noqa: D401 - argparse API
+        # "argument --n: --n = 0: ..." -> "--n = 0: ...": our option types name the option already
+        head, sep, rest = message.partition(": ")
+        if (
+            sep
+            and head.startswith("argument ")
+            and rest.startswith(head.removeprefix("argument ").split("/")[0])
+        ):
+            message = rest
         raise UsageError(message)
 
 
@@ -50,13 +73,43 @@ def float_option(name: str, lo: float = -math.inf, hi: float = math.inf, lo_open
     return parse
 
 
+def int_option(name: str, lo: int, hi: int):
+    """argparse ``type`` for an integer in [lo, hi]; the message names ``name`` and the range."""
+
+    def parse(text: str) -> int:
+        try:
+            v = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name} = {text!r}: not an integer") from None
+        if not lo <= v <= hi:
+            raise argparse.ArgumentTypeError(f"{name} = {text}: must be an integer in [{lo}, {hi}]")
+        return v
+
+    return parse
+
+
+def modulus_option(name: str):
+    """argparse ``type`` for a Young's modulus (Pa) in :data:`isj.validate.MODULUS_RANGE_PA`."""
+    return float_option(name, *MODULUS_RANGE_PA, lo_open=False, hi_open=False)
+
+
+def seed_option(p: argparse.ArgumentParser, what: str) -> None:
+    """``--seed``: an integer in [0, 2^32 - 1]."""
+    p.add_argument(
+        "--seed",
+        type=int_option("--seed", 0, MAX_SEED),
+        default=0,
+        help=f"seed of {what}, an integer in [0, {MAX_SEED}] (default 0)",
+    )
+
+
 def range_option(name: str):
-    """argparse ``type`` for ``PA`` or ``LOW:HIGH`` (Pa, > 0, LOW <= HIGH) → (low, high)."""
+    """argparse ``type`` for ``PA`` or ``LOW:HIGH`` (Pa, in the modulus range, LOW <= HIGH) → (low, high)."""
 
     def parse(text: str) -> tuple[float, float]:
         lo_txt, sep, hi_txt = text.partition(":")
-        lo = float_option(name, lo=0.0)(lo_txt)
-        hi = float_option(name, lo=0.0)(hi_txt) if sep else lo
+        lo = modulus_option(name)(lo_txt)
+        hi = modulus_option(name)(hi_txt) if sep else lo
         if hi < lo:
             raise argparse.ArgumentTypeError(f"{name} = {text}: LOW:HIGH needs LOW <= HIGH")
         return lo, hi
@@ -64,39 +117,46 @@ def range_option(name: str):
     return parse
 
 
-def nu_option(p: argparse.ArgumentParser, whose: str = "model") -> None:
+#: The default design's Poisson's ratio.
+DEFAULT_NU = Materials().nu
+
+
+def nu_option(p: argparse.ArgumentParser, whose: str = "model", default=DEFAULT_NU, help=None) -> None:
     """``--nu``: Poisson's ratio in (-1, 0.5)."""
     p.add_argument(
         "--nu",
         type=float_option("--nu", -1.0, 0.5),
-        default=Materials().nu,
-        help=f"Poisson's ratio of the {whose}, in (-1, 0.5) (default {Materials().nu})",
+        default=default,
+        help=help or f"Poisson's ratio of the {whose}, in (-1, 0.5) (default {Materials().nu})",
     )
 
 
 def pressure_option(p: argparse.ArgumentParser, where: str = "the incus's -x face") -> None:
-    """``--pressure``: the static load (Pa)."""
+    """``--pressure``: the static load (Pa), in :data:`isj.validate.PRESSURE_RANGE_PA`."""
+    lo, hi = PRESSURE_RANGE_PA
     p.add_argument(
         "--pressure",
         metavar="PA",
-        type=float_option("--pressure"),
+        type=float_option("--pressure", lo, hi, lo_open=False, hi_open=False),
         default=DEFAULT_PRESSURE_PA,
-        help=f"pressure on {where} (Pa; default {DEFAULT_PRESSURE_PA:g})",
+        help=f"pressure on {where} (Pa, in [{lo:g}, {hi:g}]; default {DEFAULT_PRESSURE_PA:g})",
     )
 
 
-def add_moduli_options(p: argparse.ArgumentParser, whose: str = "") -> None:
-    """``--<region>-e`` for each region of the joint model, and ``--nu``."""
+def add_moduli_options(p: argparse.ArgumentParser, whose: str = "", nu: bool = True) -> None:
+    """``--<region>-e`` for each region of the joint model, and ``--nu`` (unless ``nu`` is false)."""
     d = Materials()
+    lo, hi = MODULUS_RANGE_PA
     for r in MODULUS_OPTIONS:
         p.add_argument(
             f"--{r}-e",
             metavar="PA",
-            type=float_option(f"--{r}-e", lo=0.0),
+            type=modulus_option(f"--{r}-e"),
             default=d.youngs(r),
-            help=f"Young's modulus of the {whose}{r} (Pa, > 0; default {d.youngs(r):g})",
+            help=f"Young's modulus of the {whose}{r} (Pa, in [{lo:g}, {hi:g}]; default {d.youngs(r):g})",
         )
-    nu_option(p, whose.removesuffix("'s ") or "model")
+    if nu:
+        nu_option(p, whose.removesuffix("'s ") or "model")
 
 
 def add_design_options(p: argparse.ArgumentParser) -> None:
@@ -108,13 +168,20 @@ def add_design_options(p: argparse.ArgumentParser) -> None:
 def add_order_resolution(p: argparse.ArgumentParser, what: str = "mesh") -> None:
     """``--order {1,2}`` and ``--resolution R``."""
     p.add_argument("--order", type=int, choices=(1, 2), default=2, help="P1 or P2 tetrahedra (default 2)")
+    lo, hi = RESOLUTION_RANGE
     p.add_argument(
         "--resolution",
         metavar="R",
-        type=float_option("--resolution", lo=0.0),
+        type=resolution_option("--resolution"),
         default=1.0,
-        help=f"{what} refinement factor, > 0: 2 halves every element size (default 1)",
+        help=f"{what} refinement factor in [{lo:g}, {hi:g}]: 2 halves every element size (default 1); "
+        "a model whose estimated memory exceeds 16 GiB is refused",
     )
+
+
+def resolution_option(name: str):
+    """argparse ``type`` for a mesh resolution factor in :data:`RESOLUTION_RANGE`."""
+    return float_option(name, *RESOLUTION_RANGE, lo_open=False, hi_open=False)
 
 
 def add_mesh_options(p: argparse.ArgumentParser) -> None:
@@ -167,8 +234,11 @@ def add_cache_option(p: argparse.ArgumentParser) -> None:
 
 
 def geometry(args) -> Geometry:
-    """The :class:`Geometry` of ``--geometry`` overrides."""
-    return Geometry(**dict(args.geometry))
+    """The :class:`Geometry` of ``--geometry`` overrides; a dimension out of bounds is one line."""
+    try:
+        return Geometry(**dict(args.geometry))
+    except InvalidParameter as exc:  # names the field and its range (isj.design.GEOMETRY_BOUNDS_M)
+        raise UsageError(f"--geometry {exc}") from None
 
 
 def materials(args) -> Materials:
@@ -181,24 +251,181 @@ def moduli(m: Materials) -> dict[str, float]:
     return {f"{r}_e_pa": m.youngs(r) for r in MODULUS_OPTIONS}
 
 
-def check_out_path(path: str | None, flag: str, suffix: str) -> Path | None:
-    """``path`` as a Path (None stays None), refused unless it ends in ``suffix`` and is no folder."""
+def check_model_size(geometry: Geometry | None, order: int, resolution: float, flag: str = "--resolution"):
+    """Refuse, before meshing, a joint model whose estimated memory exceeds the limit.
+
+    The estimate is :func:`isj.fem.sizing.estimate_mesh_size` (no gmsh); the message names ``flag``,
+    the estimate and the largest resolution that fits.
+    """
+    from isj.fem.sizing import check_mesh_size
+
+    try:
+        return check_mesh_size(geometry, order, resolution, name=flag)
+    except InvalidParameter as exc:
+        raise UsageError(str(exc)) from None
+
+
+def check_solver(name: str) -> None:
+    """``--solver``: refused before meshing unless it is ``auto`` or installed here."""
+    from isj.fem.solvers import available_backends
+
+    have = available_backends()
+    if name != "auto" and name not in have:
+        raise UsageError(f"--solver = {name!r}: not installed here; must be auto or one of {', '.join(have)}")
+
+
+def _nearest_existing(p: Path) -> Path:
+    return next(q for q in (p, *p.parents) if q.exists())
+
+
+def check_writable_place(p: Path, flag: str, text: str) -> None:
+    """Refuse ``p`` (absolute) unless its folder exists and is writable or can be created.
+
+    The nearest existing folder above ``p`` must be a writable folder (:func:`os.access`), and
+    since that says yes to root everywhere, an empty folder is also made there and removed at
+    once (the way :func:`isj.reports.run.check_out_dir` tries it): nothing is left behind.
+    """
+    above = _nearest_existing(p.parent)
+    if not above.is_dir():
+        raise UsageError(f"{flag} = {text!r}: {str(above)!r} is not a folder")
+    why = None
+    if not os.access(above, os.W_OK | os.X_OK):
+        why = "permission denied"
+    else:
+        try:
+            os.rmdir(tempfile.mkdtemp(prefix=".isj-probe-", dir=above))
+        except OSError as exc:
+            why = exc.strerror or str(exc)
+    if why is not None:
+        raise UsageError(f"{flag} = {text!r}: nothing can be written in {str(above)!r} ({why})")
+
+
+def check_out_path(path: str | None, flag: str, suffixes: str | tuple[str, ...]) -> Path | None:
+    """An output file, checked before anything runs; None stays None.
+
+    Refused: an empty name, a name not ending in one of ``suffixes``, a folder, a place that
+    cannot be written (:func:`check_writable_place`).
+    """
     if path is None:
         return None
+    suffixes = (suffixes,) if isinstance(suffixes, str) else tuple(suffixes)
+    if not path.strip():
+        raise UsageError(f"{flag} = {path!r}: must name a file ending in {' or '.join(suffixes)}")
     p = Path(path)
-    if p.suffix.lower() != suffix:
-        raise UsageError(f"{flag} = {path!r}: must end in {suffix}")
-    if p.exists() and p.is_dir():
-        raise UsageError(f"{flag} = {path!r}: is a directory")
+    if p.suffix.lower() not in suffixes:
+        raise UsageError(f"{flag} = {path!r}: must be a file ending in {' or '.join(suffixes)}")
+    if p.is_dir():
+        raise UsageError(f"{flag} = {path!r}: is a folder; must be a file ending in {' or '.join(suffixes)}")
+    check_writable_place(Path(os.path.abspath(path)), flag, path)
     return p
 
 
-def check_out_dir(path: str, flag: str = "--out") -> Path:
-    """An output folder: refused when something that is not a folder is there."""
+def check_out_dir(path: str, flag: str = "--out", entries: frozenset[str] | None = None) -> Path:
+    """An output folder, checked before anything runs.
+
+    Refused: an empty name, something that is not a folder, a place where no folder can be made;
+    and when ``entries`` is given (the folder is replaced as a whole, :func:`isj.atomic.replace_dir`)
+    also the current folder or one above it, a symbolic link, and a folder holding anything else.
+    """
+    if not path.strip():
+        raise UsageError(f"{flag} = {path!r}: must name a folder (not empty)")
     out = Path(path)
-    if out.exists() and not out.is_dir():
-        raise UsageError(f"{flag} = {path!r}: exists and is not a directory")
+    absolute = Path(os.path.abspath(path))
+    cwd = Path.cwd().absolute()
+    replaced = entries is not None
+    if replaced and (absolute.parent == absolute or absolute == cwd or absolute in cwd.parents):
+        raise UsageError(f"{flag} = {path!r}: must not be the current folder, one above it or a root")
+    if replaced and out.is_symlink():
+        raise UsageError(f"{flag} = {path!r}: is a symbolic link; give the folder it points to")
+    if out.exists():
+        if not out.is_dir():
+            raise UsageError(f"{flag} = {path!r}: exists and is not a folder")
+        other = sorted(q.name for q in out.iterdir() if replaced and q.name not in entries)
+        if other:
+            raise UsageError(
+                f"{flag} = {path!r}: holds {other[0]!r}, which this command does not write; "
+                "must be a new or empty folder or one this command wrote"
+            )
+    check_writable_place(absolute, flag, path)
     return out
+
+
+def print_json(obj) -> None:
+    """Print ``obj`` as JSON; a NaN or infinity is a bug here (:func:`check_finite` runs first)."""
+    print(json.dumps(obj, allow_nan=False))
+
+
+def _non_finite(obj, where: str = ""):
+    """The first (path, value) in ``obj`` (dicts, lists, numbers) that is a non-finite number."""
+    if isinstance(obj, dict):
+        items = ((f"{where}.{k}" if where else str(k), v) for k, v in obj.items())
+    elif isinstance(obj, list | tuple):
+        items = ((f"{where}[{i}]", v) for i, v in enumerate(obj))
+    elif isinstance(obj, float) and not math.isfinite(obj):
+        return where, obj
+    else:
+        try:  # numpy arrays and scalars
+            import numpy as np
+
+            a = np.asarray(obj)
+            if a.dtype.kind in "fc" and not np.all(np.isfinite(a)):
+                return where, a.ravel()[~np.isfinite(a.ravel())][0]
+        except (TypeError, ValueError):
+            pass
+        return None
+    for k, v in items:
+        bad = _non_finite(v, k)
+        if bad is not None:
+            return bad
+    return None
+
+
+def check_finite(result, inputs: str) -> None:
+    """Refuse a result holding NaN or infinity: one line naming the value and the inputs (exit 2).
+
+    The second line of defence behind the input ranges: a result that is not finite is never
+    printed or written. ``inputs`` names the options the result came from.
+    """
+    bad = _non_finite(result)
+    if bad is not None:
+        raise UsageError(
+            f"the result {bad[0]} = {bad[1]} is not finite: the inputs ({inputs}) are outside what "
+            "the model can compute; nothing was written"
+        )
+
+
+def design_inputs(args) -> str:
+    """The design options of ``args`` as ``--pedicle-e 5e+09, ...`` for :func:`check_finite`."""
+    names = [f"{r}-e" for r in MODULUS_OPTIONS] + ["nu", "pressure", "drum-e"]
+    values = {n: getattr(args, n.replace("-", "_"), None) for n in names}
+    return ", ".join(f"--{n} {v:g}" for n, v in values.items() if isinstance(v, int | float)) or "defaults"
+
+
+#: Seconds :func:`check_scheduler` waits for a Dask scheduler to accept a connection.
+SCHEDULER_TIMEOUT_S = 3.0
+
+
+def check_scheduler(address: str | None, timeout_s: float = SCHEDULER_TIMEOUT_S) -> None:
+    """``--scheduler``: a ``tcp://HOST:PORT`` (or ``tls://``, or bare ``HOST:PORT``) that accepts a
+    connection within ``timeout_s``; checked before any work, so a wrong address is one line."""
+    if address is None:
+        return
+    rule = "must be tcp://HOST:PORT (or tls://HOST:PORT) of a running Dask scheduler"
+    parts = urlsplit(address if "://" in address else f"tcp://{address}")
+    try:
+        host, port = parts.hostname, parts.port
+    except ValueError:
+        host = port = None
+    if parts.scheme not in ("tcp", "tls") or not host or port is None:
+        raise UsageError(f"--scheduler = {address!r}: {rule}")
+    try:
+        socket.create_connection((host, port), timeout=timeout_s).close()
+    except OSError as exc:
+        why = "no answer" if isinstance(exc, TimeoutError) else (exc.strerror or str(exc))
+        raise UsageError(
+            f"--scheduler = {address!r}: no scheduler reachable at {host}:{port} within {timeout_s:g} s "
+            f"({why}); {rule}"
+        ) from None
 
 
 def load_calibration(path: str | None):

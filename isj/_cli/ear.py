@@ -3,19 +3,27 @@
 from __future__ import annotations
 
 import argparse
-import json
 import time
 
 from isj.design import Materials
 
 from . import _common as c
-from .sweep import add_band_options, add_damping_options, sweep_setup
+from .sweep import add_band_options, add_damping_options, check_sweep_finite, sweep_setup
+
+#: What ``isj ear sweep`` writes into --out; a folder holding anything else is refused.
+EAR_SWEEP_FILES = frozenset({"ear_sweep.csv", "ear_sweep.npz", "ear_bode.png", "ear_sweep.json"})
 
 
 def _add_ear_options(p: argparse.ArgumentParser) -> None:
     c.add_moduli_options(p, "joint model's ")
-    drum = c.float_option("--drum-e", lo=0.0)
-    p.add_argument("--drum-e", metavar="PA", type=drum, default=20e6, help="eardrum modulus (Pa)")
+    lo, hi = c.MODULUS_RANGE_PA
+    p.add_argument(
+        "--drum-e",
+        metavar="PA",
+        type=c.modulus_option("--drum-e"),
+        default=20e6,
+        help=f"eardrum modulus (Pa, in [{lo:g}, {hi:g}]; default 20e6)",
+    )
     p.add_argument("--rigid-joint", action="store_true", help="replace the joint model by a rigid connection")
     c.add_order_resolution(p, "joint mesh")
     c.add_json_option(p)
@@ -52,8 +60,19 @@ def register(sub) -> None:
         "FE check (complex, |lumped/FE - 1|; default 0.1)",
     )
     add_damping_options(p)
-    p.add_argument("--out", metavar="DIR", default="ear_sweep", help="output folder (default ./ear_sweep)")
+    p.add_argument(
+        "--out",
+        metavar="DIR",
+        default="ear_sweep",
+        help="output folder (default ./ear_sweep): new, empty or a previous ear sweep's, replaced as a whole",
+    )
     p.set_defaults(func=sweep)
+
+
+def _check_joint(args) -> None:
+    """Before any model is built: the embedded joint model's estimated size (none if rigid)."""
+    if not args.rigid_joint:
+        c.check_model_size(None, args.order, args.resolution)
 
 
 def _ear_model(args):
@@ -83,11 +102,14 @@ def _ear_lines(name: str, r) -> list[str]:
 
 
 def solve(args) -> int:
+    materials = c.materials(args)
+    _check_joint(args)
     model, ear_materials = _ear_model(args)
-    res = model.solve(c.materials(args), ear_materials)
+    res = model.solve(materials, ear_materials)
     out = res.to_dict() | {"n_dofs": model.n_dofs, "rigid_joint": args.rigid_joint}
+    c.check_finite(out, c.design_inputs(args))
     if args.json:
-        print(json.dumps(out))
+        c.print_json(out)
         return 0
     print("\n".join(_ear_lines("whole ear, per Pa of ear-canal pressure", res)))
     ax = res.rotation_axis
@@ -100,11 +122,14 @@ def solve(args) -> int:
 def cases(args) -> int:
     from ..cases import THESIS_CASES
 
-    model, ear_materials = _ear_model(args)
     base = Materials(nu=args.nu)
+    _check_joint(args)
+    model, ear_materials = _ear_model(args)
     res = {case.name: model.solve(case.materials(base), ear_materials) for case in THESIS_CASES}
+    rows = [{"case": k} | r.to_dict() for k, r in res.items()]
+    c.check_finite(rows, f"--nu {args.nu:g}, --drum-e {args.drum_e:g}")
     if args.json:
-        print(json.dumps([{"case": k} | r.to_dict() for k, r in res.items()]))
+        c.print_json(rows)
     else:
         for k, r in res.items():
             print("\n".join(_ear_lines(k, r)))
@@ -122,10 +147,12 @@ def sweep(args) -> int:
     from isj.calibration.checks import warn_outside_domain
     from isj.calibration.sweeps import ear_sweep
 
+    from ..atomic import replace_dir
     from ..ear import EarMaterials
     from ..provenance import write_run_record
 
-    out, cal, m, fe_freq = sweep_setup(args)
+    out, cal, m, fe_freq = sweep_setup(args, EAR_SWEEP_FILES)
+    _check_joint(args)
     if not args.rigid_joint:
         warn_outside_domain(cal, c.moduli(m))
     t0 = time.perf_counter()
@@ -139,6 +166,7 @@ def sweep(args) -> int:
         rayleigh_b_s=args.rayleigh_b,
         loss_factor=args.loss_factor,
     )
+    check_sweep_finite(sw, args, ("static", sw.static))
     t1 = time.perf_counter()
     # FE whole-ear static spot check (low frequency), before anything is written
     fe_model, ear_materials = _ear_model(args)
@@ -185,7 +213,6 @@ def sweep(args) -> int:
             )
     t3 = time.perf_counter()
     all_passed = passed and all(ck["passed"] for ck in fe_checks)
-    _write(args, out, sw, check, fe_checks)
     summary = {
         "n_freq": int(args.n),
         "rigid_joint": bool(args.rigid_joint),
@@ -200,9 +227,12 @@ def sweep(args) -> int:
         "tolerance": args.tolerance,
         "timings_s": {"lumped": t1 - t0, "fe": t2 - t1, "fe_harmonic": t3 - t2},
     }
-    write_run_record(out / "ear_sweep.json", args, summary)
+    c.check_finite(summary, c.design_inputs(args))
+    with replace_dir(out) as staging:  # the four files appear together or not at all
+        _write(args, staging, sw, check, fe_checks)
+        write_run_record(staging / "ear_sweep.json", args, summary)
     if args.json:
-        print(json.dumps(summary))
+        c.print_json(summary)
     else:
         s = sw.static
         print(

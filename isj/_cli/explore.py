@@ -2,9 +2,7 @@
 
 from __future__ import annotations
 
-import json
-
-from isj.design import DEFAULT_PRESSURE_PA, Materials
+from isj.design import Materials
 from isj.errors import UsageError
 
 from . import _common as c
@@ -20,12 +18,13 @@ def register(sub) -> None:
             metavar="PA[:PA]",
             type=c.range_option(f"--{r}-e"),
             default=(d.youngs(r), d.youngs(r)),
-            help=f"modulus of the {r} (Pa), or a LOW:HIGH range explored log-uniformly",
+            help=f"modulus of the {r} (Pa, in [{c.MODULUS_RANGE_PA[0]:g}, {c.MODULUS_RANGE_PA[1]:g}]), "
+            "or a LOW:HIGH range explored log-uniformly",
         )
-    p.add_argument("--pressure", metavar="PA", type=c.float_option("--pressure"), default=DEFAULT_PRESSURE_PA)
+    c.pressure_option(p)
     p.add_argument("--n", type=int, default=5, help="grid points per ranged modulus (default 5)")
     p.add_argument("--sample", type=int, help="instead of a grid: N Latin-hypercube designs")
-    p.add_argument("--seed", type=int, default=0, help="seed for --sample and the spot checks")
+    c.seed_option(p, "--sample and the spot checks")
     p.add_argument("--spot-checks", type=int, default=4, help="FE spot checks K (default 4)")
     p.add_argument(
         "--tolerance",
@@ -36,7 +35,14 @@ def register(sub) -> None:
     c.add_calibration_option(p)
     c.add_cache_option(p)
     p.add_argument("--order", type=int, choices=(1, 2), default=2, help="FE order of the spot checks")
-    p.add_argument("--resolution", metavar="R", type=c.float_option("--resolution", lo=0.0), default=1.0)
+    lo, hi = c.RESOLUTION_RANGE
+    p.add_argument(
+        "--resolution",
+        metavar="R",
+        type=c.resolution_option("--resolution"),
+        default=1.0,
+        help=f"FE mesh refinement of the spot checks, in [{lo:g}, {hi:g}] (default 1)",
+    )
     c.add_json_option(p)
     p.set_defaults(func=explore)
 
@@ -53,8 +59,8 @@ def explore(args) -> int:
     cal = c.load_calibration(args.calibration)
     if args.n < 1 or (args.sample is not None and args.sample < 1) or args.spot_checks < 0:
         raise UsageError("--n, --sample: must be >= 1; --spot-checks: must be >= 0")
-    if args.seed < 0:
-        raise UsageError(f"--seed = {args.seed}: must be an integer >= 0")
+    if args.spot_checks:
+        c.check_model_size(None, args.order, args.resolution)
     space = ExploreSpace(**{f"{r}_e_pa": getattr(args, f"{r}_e") for r in c.MODULUS_OPTIONS})
     total = count_designs(space, args.n, args.sample)  # before anything of that size is allocated
     if total > MAX_DESIGNS:
@@ -92,8 +98,9 @@ def explore(args) -> int:
         "max_spot_error": comp.max_abs_error(),
         "passed": not n_failed,
     }
+    c.check_finite(summary, f"--pressure {args.pressure:g}")
     if args.json:
-        print(json.dumps(summary))
+        c.print_json(summary)
     else:
         u = c.urad
         print(

@@ -2,9 +2,7 @@
 
 from __future__ import annotations
 
-import json
 import time
-from pathlib import Path
 
 from isj.design import Materials
 from isj.errors import UsageError
@@ -35,7 +33,9 @@ def register(sub) -> None:
     p = fsub.add_parser("modes", help="lowest natural frequencies and mode shapes")
     c.add_design_options(p)
     c.add_mesh_options(p)
-    p.add_argument("--n", type=int, default=6, help="number of modes, in [1, 100] (default 6)")
+    p.add_argument(
+        "--n", type=c.int_option("--n", 1, 100), default=6, help="number of modes, in [1, 100] (default 6)"
+    )
     p.add_argument("--vtu-dir", metavar="DIR", help="write mode shapes (VTU + modes.pvd)")
     c.add_json_option(p)
     p.set_defaults(func=modes)
@@ -58,20 +58,29 @@ def register(sub) -> None:
     p.add_argument(
         "--resolutions",
         metavar="R",
-        type=c.float_option("--resolutions", lo=0.0),
+        type=c.resolution_option("--resolutions"),
         nargs="+",
         default=None,
-        help="mesh resolution factors (default: a preset ladder)",
+        help=f"mesh resolution factors, each in [{c.RESOLUTION_RANGE[0]:g}, {c.RESOLUTION_RANGE[1]:g}] "
+        "(default: a preset ladder)",
     )
     p.add_argument("--plot", metavar="PATH", help="write a plot (.png, .pdf or .svg)")
     c.add_json_option(p, "a JSON list")
     p.set_defaults(func=convergence)
 
 
-def _model(args):
+def _checked_geometry(args):
+    """The geometry, the solver and the model's estimated size, all checked before meshing."""
+    geometry = c.geometry(args)
+    c.check_solver(args.solver)
+    c.check_model_size(geometry, args.order, args.resolution)
+    return geometry
+
+
+def _model(args, geometry):
     from isj.fem.model import PedicleJointModel
 
-    return PedicleJointModel(c.geometry(args), args.order, args.resolution, solver=args.solver)
+    return PedicleJointModel(geometry, args.order, args.resolution, solver=args.solver)
 
 
 def solve(args) -> int:
@@ -81,8 +90,9 @@ def solve(args) -> int:
 
     vtu = c.check_out_path(args.vtu, "--vtu", ".vtu")
     materials = c.materials(args)
+    geometry = _checked_geometry(args)
     t0 = time.perf_counter()
-    model = _model(args)
+    model = _model(args, geometry)
     res = model.solve(materials, args.pressure)
     timings = dict(model.timings_s, total=time.perf_counter() - t0)
     out = res.to_dict() | {
@@ -94,11 +104,12 @@ def solve(args) -> int:
         "mesh_hash": model.mesh.content_hash(),
         "timings_s": timings,
     }
+    c.check_finite(out, c.design_inputs(args))
     if vtu is not None:
         write_model_vtu(vtu, model, res)
         write_run_record(vtu.with_suffix(".json"), args, out)
     if args.json:
-        print(json.dumps(out))
+        c.print_json(out)
         return 0
     u = c.urad
     print(f"P{args.order} mesh: {model.n_tets} tets, {model.n_dofs} dofs, solver {model.solver_name}")
@@ -122,8 +133,9 @@ def cases(args) -> int:
 
     vtu = c.check_out_path(args.vtu, "--vtu", ".vtu")
     base = Materials(nu=args.nu)
+    geometry = _checked_geometry(args)
     t0 = time.perf_counter()
-    model = _model(args)
+    model = _model(args, geometry)
     rows, results = [], {}
     for case in THESIS_CASES:
         res = model.solve(case.materials(base), args.pressure)
@@ -131,12 +143,13 @@ def cases(args) -> int:
         moduli = {k: getattr(case, k) for k in ("pedicle_e_pa", "gap_e_pa", "capsule_e_pa")}
         rows.append({"case": case.name} | moduli | res.to_dict())
     elapsed = time.perf_counter() - t0
+    c.check_finite(rows, f"--nu {args.nu:g}, --pressure {args.pressure:g}")
     if vtu is not None:
         write_model_vtu(vtu, model, results["base"])
         record = {"cases": rows, "n_tets": model.n_tets, "n_dofs": model.n_dofs}
         write_run_record(vtu.with_suffix(".json"), args, record)
     if args.json:
-        print(json.dumps(rows))
+        c.print_json(rows)
         return 0
     print(
         f"Seven thesis cases: P{args.order}, {model.n_tets} tets, {model.n_dofs} dofs, "
@@ -172,15 +185,16 @@ def cases(args) -> int:
 def convergence(args) -> int:
     from isj.fem.convergence import cantilever_study, joint_study, plot_study
 
-    plot = Path(args.plot) if args.plot else None
-    if plot is not None and (plot.suffix.lower() not in (".png", ".pdf", ".svg") or plot.is_dir()):
-        raise UsageError(f"--plot = {args.plot!r}: must be a file ending in .png, .pdf or .svg")
     if args.model == "joint":
-        if plot is not None:
+        if args.plot is not None:
             raise UsageError("--plot: only for --model cantilever")
-        rows = joint_study(args.order, args.resolutions or (0.71, 1.0, 1.41))
+        resolutions = args.resolutions or (0.71, 1.0, 1.41)
+        for r in resolutions:
+            c.check_model_size(None, args.order, r, "--resolutions")
+        rows = joint_study(args.order, resolutions)
+        c.check_finite(rows, f"--order {args.order}")
         if args.json:
-            print(json.dumps(rows))
+            c.print_json(rows)
             return 0
         print(f"Base case at the default pressure, P{args.order}:")
         print(f"{'R':>5} {'n_tets':>8} {'n_dofs':>8} {'alpha urad':>10} {'beta urad':>10} {'time s':>7}")
@@ -192,13 +206,15 @@ def convergence(args) -> int:
         return 0
     if args.direction is None:
         raise UsageError("--direction: required for --model cantilever (x or y)")
+    plot = c.check_out_path(args.plot, "--plot", (".png", ".pdf", ".svg"))
     rows = cantilever_study(
         direction=args.direction, order=args.order, nu=args.nu, resolutions=args.resolutions
     )
+    c.check_finite(rows, f"--nu {args.nu:g}")
     if plot is not None:
         plot_study(rows, plot, title=f"Pedicle cantilever, load in {args.direction}, P{args.order}")
     if args.json:
-        print(json.dumps(rows))
+        c.print_json(rows)
         return 0
     print(
         f"Pedicle cantilever, shear load in {args.direction}, P{args.order}: "
@@ -219,21 +235,19 @@ def modes(args) -> int:
     from isj.fem.dynamics import modes as fe_modes
     from isj.fem.export import write_modes
 
-    if args.n < 1 or args.n > 100:
-        raise UsageError(f"--n = {args.n}: must be between 1 and 100")
-    out_dir = Path(args.vtu_dir) if args.vtu_dir else None
-    if out_dir is not None and out_dir.exists() and not out_dir.is_dir():
-        raise UsageError(f"--vtu-dir = {args.vtu_dir!r}: exists and is not a directory")
+    out_dir = c.check_out_dir(args.vtu_dir, "--vtu-dir") if args.vtu_dir is not None else None
     materials = c.materials(args)
+    geometry = _checked_geometry(args)
     t0 = time.perf_counter()
-    model = _model(args)
+    model = _model(args, geometry)
     freq_hz, shapes = fe_modes(model, materials, args.n)
     elapsed = time.perf_counter() - t0
+    out = {"freq_hz": [float(f) for f in freq_hz], "n_dofs": model.n_dofs, "n_tets": model.n_tets}
+    c.check_finite(out, c.design_inputs(args))
     if out_dir is not None:
         write_modes(out_dir, model, freq_hz, shapes)
     if args.json:
-        out = {"freq_hz": [float(f) for f in freq_hz], "n_dofs": model.n_dofs, "n_tets": model.n_tets}
-        print(json.dumps(out | {"time_s": elapsed}))
+        c.print_json(out | {"time_s": elapsed})
         return 0
     print(f"lowest {args.n} natural frequencies (P{args.order}, {model.n_dofs} dofs, {elapsed:.1f} s):")
     for i, f in enumerate(freq_hz, 1):
@@ -246,7 +260,7 @@ def modes(args) -> int:
 def mesh(args) -> int:
     from isj.fem.quality import mesh_quality, rcm_bandwidth
 
-    model = _model(args)
+    model = _model(args, _checked_geometry(args))
     q = mesh_quality(model.mesh)
     K = model.stiffness(Materials(), reduced=False)
     before, after = rcm_bandwidth(K)
@@ -258,7 +272,7 @@ def mesh(args) -> int:
         "stiffness_bandwidth_rcm": after,
     }
     if args.json:
-        print(json.dumps(out))
+        c.print_json(out)
         return 0
     print(
         f"mesh {out['mesh_hash'][:12]}: {q['n_tets']} tets, {q['n_nodes']} vertices; "

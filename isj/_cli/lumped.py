@@ -2,8 +2,7 @@
 
 from __future__ import annotations
 
-import json
-
+from isj.design import Materials
 from isj.errors import UsageError
 
 from . import _common as c
@@ -14,11 +13,25 @@ def register(sub) -> None:
     lum = sub.add_parser("lumped", help="the calibrated lumped model")
     lsub = lum.add_subparsers(dest="lumped_command", required=True, parser_class=c.Parser)
     p = lsub.add_parser("solve", help="static alpha and beta of one design (microseconds)")
-    c.add_design_options(p)
-    c.add_mesh_options(p)
+    c.add_moduli_options(p, nu=False)
+    # the lumped model is calibrated at one Poisson's ratio: --nu may only repeat it
+    c.nu_option(
+        p,
+        default=None,
+        help="Poisson's ratio: the lumped model is calibrated at one (0.3 for the shipped calibration); "
+        "another is refused",
+    )
+    c.pressure_option(p)
+    c.add_geometry_option(p)  # refused unless empty: calibrated for the default geometry only
     c.add_calibration_option(p)
     c.add_json_option(p)
     p.set_defaults(func=solve)
+
+
+def calibrated_nu(cal) -> float:
+    """The Poisson's ratio ``cal`` was fitted at: its FE settings' ``nu``, else the default design's."""
+    nu = cal.fe_settings.get("nu", Materials().nu)
+    return float(nu) if isinstance(nu, int | float) and not isinstance(nu, bool) else Materials().nu
 
 
 def solve(args) -> int:
@@ -27,6 +40,13 @@ def solve(args) -> int:
     cal = c.load_calibration(args.calibration)
     if args.geometry:
         raise UsageError("--geometry: the lumped model is calibrated for the default geometry only")
+    nu = calibrated_nu(cal)
+    if args.nu is not None and args.nu != nu:
+        raise UsageError(
+            f"--nu = {args.nu:g}: the lumped model is calibrated at nu = {nu:g} only; "
+            f"omit --nu or give {nu:g} (the FE model takes any nu: isj fem solve --nu)"
+        )
+    args.nu = nu
     designs = c.moduli(c.materials(args))
     warn_outside_domain(cal, designs)
     r = lumped_static(cal, designs, pressure_pa=args.pressure)
@@ -39,8 +59,9 @@ def solve(args) -> int:
         "calibration": args.calibration or "default",
         "validation": cal.validation,
     }
+    c.check_finite(out, f"{c.design_inputs(args)}, --calibration {out['calibration']}")
     if args.json:
-        print(json.dumps(out))
+        c.print_json(out)
         return 0
     v = cal.validation
     print(

@@ -11,7 +11,12 @@ def register(sub) -> None:
     """Add ``isj report`` to the top-level subparsers ``sub``."""
     p = sub.add_parser("report", help="run the pipeline and write the PDF report")
     p.add_argument("--config", metavar="CASE.toml", help="TOML case file (default: built-in defaults)")
-    p.add_argument("--out", metavar="DIR", default="report", help="output folder (default ./report)")
+    p.add_argument(
+        "--out",
+        metavar="DIR",
+        default="report",
+        help="output folder (default ./report): new, empty or a previous report, replaced as a whole",
+    )
     p.add_argument(
         "--set",
         metavar="SECTION.KEY=VALUE",
@@ -27,17 +32,16 @@ def register(sub) -> None:
 def report(args) -> int:
     from isj.lumped.artifact import CorruptCalibration
     from isj.reports.config import ConfigError, load_config
-    from isj.reports.run import load_calibration, run_report
+    from isj.reports.run import check_out_dir, load_calibration, run_report
 
-    # everything is validated before the output folder is created
+    # everything is validated before the output folder is created: the folder (new, empty or a
+    # previous report; a place where a folder can be made), the configuration, the calibration
+    check_out_dir(args.out, "--out")
     try:
         config = load_config(args.config, args.set or [])
         calibration = load_calibration(config)
     except (ConfigError, CorruptCalibration) as exc:
         raise UsageError(str(exc)) from None
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise UsageError(f"--out {args.out!r}: exists and is not a folder")
     verbosity = 0 if args.quiet else 1 + args.verbose
-    run_report(config, out, verbosity=verbosity, calibration=calibration)
+    run_report(config, Path(args.out), verbosity=verbosity, calibration=calibration, out_name="--out")
     return 0

@@ -7,11 +7,23 @@ before anything runs) are here too.
 from __future__ import annotations
 
 import argparse
-import json
+import math
 
 from isj.errors import UsageError
 
 from . import _common as c
+
+#: Largest Rayleigh term over the band: ωb at --fmax-hz and a/ω at --fmin-hz. At 100 the damping
+#: force is a hundred times the elastic (or inertial) one, so the response is the damping law's,
+#: not the structure's (the defaults give ωb = 12.6 at 20 kHz); far past it (b = 1e300) the
+#: damped stiffness overflows and the damping ratios come out NaN.
+MAX_RAYLEIGH_TERM = 100.0
+#: Largest structural loss factor: the lossiest solids (polymers in their glass transition) reach
+#: about 2, the middle ear's soft tissues about 0.3.
+MAX_LOSS_FACTOR = 10.0
+
+#: What ``isj sweep`` writes into --out; a folder holding anything else is refused.
+SWEEP_FILES = frozenset({"sweep.csv", "sweep.npz", "bode.png", "sweep.json"})
 
 
 def add_band_options(p: argparse.ArgumentParser, fmax_hz: float = 20e3, why: str = "") -> None:
@@ -25,51 +37,85 @@ def add_band_options(p: argparse.ArgumentParser, fmax_hz: float = 20e3, why: str
         default=fmax_hz,
         help=f"highest frequency (Hz; default {fmax_hz:g}{why})",
     )
-    p.add_argument("--n", type=int, default=200, help="frequencies, log-spaced, in [2, 100000] (default 200)")
+    p.add_argument(
+        "--n",
+        type=c.int_option("--n", 2, 100_000),
+        default=200,
+        help="frequencies, log-spaced, in [2, 100000] (default 200)",
+    )
 
 
 def add_damping_options(p: argparse.ArgumentParser) -> None:
     """Rayleigh a, b and the loss factor, and the lumped model's calibration."""
+    big = f"{MAX_RAYLEIGH_TERM:g}"
     p.add_argument(
         "--rayleigh-a",
         metavar="PER_S",
         type=c.float_option("--rayleigh-a", lo=0.0, lo_open=False),
         default=0.0,
-        help="Rayleigh mass coefficient a (1/s; default 0)",
+        help=f"Rayleigh mass coefficient a (1/s, >= 0, a/omega <= {big} at --fmin-hz; default 0)",
     )
     p.add_argument(
         "--rayleigh-b",
         metavar="S",
         type=c.float_option("--rayleigh-b", lo=0.0, lo_open=False),
         default=1e-4,
-        help="Rayleigh stiffness coefficient b (s; default 1e-4)",
+        help=f"Rayleigh stiffness coefficient b (s, >= 0, omega b <= {big} at --fmax-hz; default 1e-4)",
     )
     p.add_argument(
         "--loss-factor",
-        type=c.float_option("--loss-factor", lo=0.0, lo_open=False),
+        type=c.float_option("--loss-factor", lo=0.0, hi=MAX_LOSS_FACTOR, lo_open=False, hi_open=False),
         default=0.0,
-        help="structural loss factor eta (default 0)",
+        help=f"structural loss factor eta, in [0, {MAX_LOSS_FACTOR:g}] (default 0)",
     )
     c.add_calibration_option(p)
 
 
-def sweep_setup(args):
+def check_rayleigh(args) -> None:
+    """Rayleigh a and b within :data:`MAX_RAYLEIGH_TERM` over the band [--fmin-hz, --fmax-hz]."""
+    w_min, w_max = 2 * math.pi * args.fmin_hz, 2 * math.pi * args.fmax_hz
+    if args.rayleigh_b * w_max > MAX_RAYLEIGH_TERM:
+        raise UsageError(
+            f"--rayleigh-b = {args.rayleigh_b:g} s: omega b = {args.rayleigh_b * w_max:.3g} at --fmax-hz "
+            f"{args.fmax_hz:g}; must be <= {MAX_RAYLEIGH_TERM:g} over the band, i.e. --rayleigh-b "
+            f"<= {MAX_RAYLEIGH_TERM / w_max:.3g} s"
+        )
+    if args.rayleigh_a / w_min > MAX_RAYLEIGH_TERM:
+        raise UsageError(
+            f"--rayleigh-a = {args.rayleigh_a:g} 1/s: a/omega = {args.rayleigh_a / w_min:.3g} at --fmin-hz "
+            f"{args.fmin_hz:g}; must be <= {MAX_RAYLEIGH_TERM:g} over the band, i.e. --rayleigh-a "
+            f"<= {MAX_RAYLEIGH_TERM * w_min:.3g} 1/s"
+        )
+
+
+def sweep_setup(args, files: frozenset[str]):
     """Checks shared by ``isj sweep`` and ``isj ear sweep``: (out dir, calibration, materials, fe freq).
 
-    Everything is checked here, before any model is built.
+    Everything is checked here, before any model is built: the band, the damping over it, the
+    counts, the output folder (new, empty, or one holding only ``files``: it is replaced as a
+    whole) and the calibration.
     """
     from isj.calibration.sweeps import fe_check_frequencies
     from isj.validate import check_band
 
     check_band(args.fmin_hz, args.fmax_hz, ("--fmin-hz", "--fmax-hz"))
-    if not 2 <= args.n <= 100_000:
-        raise UsageError(f"--n = {args.n}: must be an integer in [2, 100000]")
+    check_rayleigh(args)
     if not 0 <= args.fe_checks <= 50:
         raise UsageError(f"--fe-checks = {args.fe_checks}: must be an integer in [0, 50]")
-    out = c.check_out_dir(args.out)
+    out = c.check_out_dir(args.out, "--out", files)
     cal = c.load_calibration(args.calibration)
     fe_freq = fe_check_frequencies(args.fmin_hz, args.fmax_hz, args.fe_checks)
     return out, cal, c.materials(args), fe_freq
+
+
+def check_sweep_finite(sw, args, *extra) -> None:
+    """The lumped sweep's response, natural frequencies and damping ratios are finite (else exit 2)."""
+    inputs = (
+        f"{c.design_inputs(args)}, --rayleigh-a {args.rayleigh_a:g}, --rayleigh-b {args.rayleigh_b:g}, "
+        f"--loss-factor {args.loss_factor:g}"
+    )
+    values = {"natural_freq_hz": sw.natural_freq_hz, "damping_ratio": sw.damping_ratio}
+    c.check_finite(values | {"response": sw.response, **dict(extra)}, inputs)
 
 
 def register(sub) -> None:
@@ -78,7 +124,9 @@ def register(sub) -> None:
     c.add_design_options(p)
     c.add_mesh_options(p)
     add_band_options(p)
-    p.add_argument("--fe-checks", type=int, default=2, help="FE harmonic spot checks K (default 2)")
+    p.add_argument(
+        "--fe-checks", type=int, default=2, help="FE harmonic spot checks K, in [0, 50] (default 2)"
+    )
     p.add_argument(
         "--tolerance",
         type=c.float_option("--tolerance", lo=0.0),
@@ -86,7 +134,12 @@ def register(sub) -> None:
         help="largest relative error of an FE check (default 0.05)",
     )
     add_damping_options(p)
-    p.add_argument("--out", metavar="DIR", default="sweep", help="output folder (default ./sweep)")
+    p.add_argument(
+        "--out",
+        metavar="DIR",
+        default="sweep",
+        help="output folder (default ./sweep): new, empty or a previous sweep's, replaced as a whole",
+    )
     c.add_json_option(p)
     p.set_defaults(func=sweep)
 
@@ -97,11 +150,15 @@ def sweep(args) -> int:
     from isj.calibration.checks import warn_fe_settings, warn_outside_domain
     from isj.calibration.sweeps import chain_sweep
 
+    from ..atomic import replace_dir
     from ..provenance import write_run_record
 
-    out, cal, m, fe_freq = sweep_setup(args)
-    warn_outside_domain(cal, c.moduli(m))
+    out, cal, m, fe_freq = sweep_setup(args, SWEEP_FILES)
     geometry = c.geometry(args)
+    if fe_freq.size:  # the FE model of the spot checks, before any is built
+        c.check_solver(args.solver)
+        c.check_model_size(geometry, args.order, args.resolution)
+    warn_outside_domain(cal, c.moduli(m))
     sw = chain_sweep(
         cal,
         np.geomspace(args.fmin_hz, args.fmax_hz, args.n),
@@ -112,6 +169,7 @@ def sweep(args) -> int:
         loss_factor=args.loss_factor,
         pressure_pa=args.pressure,
     )
+    check_sweep_finite(sw, args)
     keys = sw.outputs[:2]  # α and β: the incus face's u_x follows from them
     checks = []
     if fe_freq.size:
@@ -137,18 +195,21 @@ def sweep(args) -> int:
                     "passed": bool(passed[i]),
                 }
             )
-    _write(args, out, sw, fe_freq, checks)
     summary = {
         "n_freq": int(args.n),
         "natural_freq_hz": [float(v) for v in sw.natural_freq_hz],
         "damping_ratio": [float(v) for v in sw.damping_ratio],
         "fe_checks": checks,
+        # a check that is not finite never passes (check_sweep_finite refused the lumped side)
         "passed": all(ck["passed"] for ck in checks),
         "tolerance": args.tolerance,
     }
-    write_run_record(out / "sweep.json", args, summary)
+    c.check_finite(summary, c.design_inputs(args))
+    with replace_dir(out) as staging:  # the four files appear together or not at all
+        _write(args, staging, sw, fe_freq, checks)
+        write_run_record(staging / "sweep.json", args, summary)
     if args.json:
-        print(json.dumps(summary))
+        c.print_json(summary)
     else:
         modes = zip(sw.natural_freq_hz, sw.damping_ratio, strict=True)
         print(
