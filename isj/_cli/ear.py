@@ -8,7 +8,7 @@ import time
 from isj.design import Materials
 
 from . import _common as c
-from .sweep import add_band_options, add_damping_options, check_sweep_finite, sweep_setup
+from .sweep import add_band_options, add_damping_options, check_sweep_finite, damping_from_args, sweep_setup
 
 #: What ``isj ear sweep`` writes into --out; a folder holding anything else is refused.
 EAR_SWEEP_FILES = frozenset({"ear_sweep.csv", "ear_sweep.npz", "ear_bode.png", "ear_sweep.json"})
@@ -155,6 +155,7 @@ def sweep(args) -> int:
     _check_joint(args)
     if not args.rigid_joint:
         warn_outside_domain(cal, c.moduli(m))
+    damping = damping_from_args(args)
     t0 = time.perf_counter()
     sw = ear_sweep(
         cal,
@@ -162,9 +163,7 @@ def sweep(args) -> int:
         m,
         EarMaterials(drum_e_pa=args.drum_e),
         rigid_joint=args.rigid_joint,
-        rayleigh_a_per_s=args.rayleigh_a,
-        rayleigh_b_s=args.rayleigh_b,
-        loss_factor=args.loss_factor,
+        damping=damping,
     )
     check_sweep_finite(sw, args, ("static", sw.static))
     t1 = time.perf_counter()
@@ -191,9 +190,6 @@ def sweep(args) -> int:
     # FE whole-ear harmonic spot checks inside the band (same masses and damping as the lumped ear)
     fe_checks = []
     if fe_freq.size:
-        from isj.fem.ear.ear_dynamics import EarDamping
-
-        damping = EarDamping(args.rayleigh_a, args.rayleigh_b, args.loss_factor)
         keys = sw.outputs if not args.rigid_joint else sw.outputs[:2]
 
         def fe_response(f):
@@ -219,6 +215,7 @@ def sweep(args) -> int:
         "coordinates": list(sw.model.coordinates),
         "natural_freq_hz": [float(v) for v in sw.natural_freq_hz],
         "damping_ratio": [float(v) for v in sw.damping_ratio],
+        "damping": damping.to_dict(),
         "static_per_pa": {k: float(sw.static[j]) for j, k in enumerate(sw.outputs)},
         "fe_check": check,
         "fe_checks": fe_checks,

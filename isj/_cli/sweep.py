@@ -45,44 +45,112 @@ def add_band_options(p: argparse.ArgumentParser, fmax_hz: float = 20e3, why: str
     )
 
 
+def _damping_value(option: str, names: tuple[str, ...], unit: str, hi: float = math.inf):
+    """argparse ``type`` for ``VALUE`` (every name) or ``NAME=VALUE`` (one name): (name or None, value)."""
+
+    def parse(text: str):
+        name, _, value = text.rpartition("=")
+        if name and name not in names:
+            raise argparse.ArgumentTypeError(
+                f"{option} {text}: unknown name {name!r}; must be one of {', '.join(names)}"
+            )
+        try:
+            v = float(value)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{option} {text}: {value!r} is not a number") from None
+        if not (math.isfinite(v) and 0 <= v <= hi):
+            raise argparse.ArgumentTypeError(f"{option} {text}: must be a finite number in [0, {hi:g}]{unit}")
+        return (name or None, v)
+
+    return parse
+
+
 def add_damping_options(p: argparse.ArgumentParser) -> None:
-    """Rayleigh a, b and the loss factor, and the lumped model's calibration."""
+    """The damping (docs/dynamics.md §4.3): a preset, then changes by name, and the calibration."""
+    from isj.damping import CAT_COCHLEAR_IMPEDANCE_PA_S_M3, MASS_PARTS, PRESETS, STIFFNESS_PARTS
+
     big = f"{MAX_RAYLEIGH_TERM:g}"
     p.add_argument(
+        "--damping",
+        choices=PRESETS,
+        default="published",
+        help="damping preset: published (default; a loss factor per material, docs/dynamics.md "
+        "4.3), uniform-rayleigh (the old b = 1e-4 s on everything) or undamped",
+    )
+    each = "; NAME a region, ear part or spring set; repeatable, applied in order after --damping"
+    p.add_argument(
+        "--loss-factor",
+        metavar="[NAME=]ETA",
+        action="append",
+        type=_damping_value("--loss-factor", STIFFNESS_PARTS, "", MAX_LOSS_FACTOR),
+        help=f"loss factor eta in [0, {MAX_LOSS_FACTOR:g}] of everything or of NAME{each}",
+    )
+    p.add_argument(
         "--rayleigh-a",
-        metavar="PER_S",
-        type=c.float_option("--rayleigh-a", lo=0.0, lo_open=False),
-        default=0.0,
-        help=f"Rayleigh mass coefficient a (1/s, >= 0, a/omega <= {big} at --fmin-hz; default 0)",
+        metavar="[NAME=]PER_S",
+        action="append",
+        type=_damping_value("--rayleigh-a", MASS_PARTS, " 1/s"),
+        help=f"Rayleigh mass coefficient a (1/s, a/omega <= {big} at --fmin-hz) of everything or NAME{each}",
     )
     p.add_argument(
         "--rayleigh-b",
-        metavar="S",
-        type=c.float_option("--rayleigh-b", lo=0.0, lo_open=False),
-        default=1e-4,
-        help=f"Rayleigh stiffness coefficient b (s, >= 0, omega b <= {big} at --fmax-hz; default 1e-4)",
+        metavar="[NAME=]S",
+        action="append",
+        type=_damping_value("--rayleigh-b", STIFFNESS_PARTS, " s"),
+        help=f"Rayleigh stiffness coefficient b (s, omega b <= {big} at --fmax-hz; on a spring set a "
+        f"dashpot c = b k) of everything or of NAME{each}",
     )
     p.add_argument(
-        "--loss-factor",
-        type=c.float_option("--loss-factor", lo=0.0, hi=MAX_LOSS_FACTOR, lo_open=False, hi_open=False),
-        default=0.0,
-        help=f"structural loss factor eta, in [0, {MAX_LOSS_FACTOR:g}] (default 0)",
+        "--cochlear-impedance",
+        metavar="PA_S_M3",
+        type=c.float_option("--cochlear-impedance", lo=0.0, lo_open=False),
+        default=None,
+        help=f"cochlear input resistance Z_C (Pa s/m^3; default {CAT_COCHLEAR_IMPEDANCE_PA_S_M3:g}, cat, "
+        "Lynch et al. 1982), on the footplate as R = Z_C A^2",
     )
     c.add_calibration_option(p)
 
 
+def damping_from_args(args):
+    """The :class:`isj.damping.Damping` of the options: ``--damping``, then each change in order."""
+    from isj.damping import Damping
+
+    d = Damping.preset(args.damping)
+    for option, field in (("loss_factor", "loss_factor"), ("rayleigh_a", "rayleigh_a_per_s"),
+                          ("rayleigh_b", "rayleigh_b_s")):  # fmt: skip
+        for name, v in getattr(args, option) or ():
+            d = d.replace(**{field: v if name is None else {name: v}})
+    if args.cochlear_impedance is not None:
+        d = d.replace(cochlear_impedance_pa_s_m3=args.cochlear_impedance)
+    return d
+
+
+def damping_inputs(args) -> str:
+    """The damping options as given, for messages: ``--damping published --loss-factor gap=0.2``."""
+    out = [f"--damping {args.damping}"]
+    for option in ("loss_factor", "rayleigh_a", "rayleigh_b"):
+        for name, v in getattr(args, option) or ():
+            out.append(f"--{option.replace('_', '-')} {'' if name is None else name + '='}{v:g}")
+    if args.cochlear_impedance is not None:
+        out.append(f"--cochlear-impedance {args.cochlear_impedance:g}")
+    return " ".join(out)
+
+
 def check_rayleigh(args) -> None:
-    """Rayleigh a and b within :data:`MAX_RAYLEIGH_TERM` over the band [--fmin-hz, --fmax-hz]."""
+    """Every Rayleigh a and b within :data:`MAX_RAYLEIGH_TERM` over the band [--fmin-hz, --fmax-hz]."""
     w_min, w_max = 2 * math.pi * args.fmin_hz, 2 * math.pi * args.fmax_hz
-    if args.rayleigh_b * w_max > MAX_RAYLEIGH_TERM:
+    d = damping_from_args(args)
+    name, b = max(d.rayleigh_b_s.items(), key=lambda kv: kv[1])
+    if b * w_max > MAX_RAYLEIGH_TERM:
         raise UsageError(
-            f"--rayleigh-b = {args.rayleigh_b:g} s: omega b = {args.rayleigh_b * w_max:.3g} at --fmax-hz "
+            f"--rayleigh-b {name}={b:g} s: omega b = {b * w_max:.3g} at --fmax-hz "
             f"{args.fmax_hz:g}; must be <= {MAX_RAYLEIGH_TERM:g} over the band, i.e. --rayleigh-b "
             f"<= {MAX_RAYLEIGH_TERM / w_max:.3g} s"
         )
-    if args.rayleigh_a / w_min > MAX_RAYLEIGH_TERM:
+    name, a = max(d.rayleigh_a_per_s.items(), key=lambda kv: kv[1])
+    if a / w_min > MAX_RAYLEIGH_TERM:
         raise UsageError(
-            f"--rayleigh-a = {args.rayleigh_a:g} 1/s: a/omega = {args.rayleigh_a / w_min:.3g} at --fmin-hz "
+            f"--rayleigh-a {name}={a:g} 1/s: a/omega = {a / w_min:.3g} at --fmin-hz "
             f"{args.fmin_hz:g}; must be <= {MAX_RAYLEIGH_TERM:g} over the band, i.e. --rayleigh-a "
             f"<= {MAX_RAYLEIGH_TERM * w_min:.3g} 1/s"
         )
@@ -110,10 +178,7 @@ def sweep_setup(args, files: frozenset[str]):
 
 def check_sweep_finite(sw, args, *extra) -> None:
     """The lumped sweep's response, natural frequencies and damping ratios are finite (else exit 2)."""
-    inputs = (
-        f"{c.design_inputs(args)}, --rayleigh-a {args.rayleigh_a:g}, --rayleigh-b {args.rayleigh_b:g}, "
-        f"--loss-factor {args.loss_factor:g}"
-    )
+    inputs = f"{c.design_inputs(args)}, {damping_inputs(args)}"
     values = {"natural_freq_hz": sw.natural_freq_hz, "damping_ratio": sw.damping_ratio}
     c.check_finite(values | {"response": sw.response, **dict(extra)}, inputs)
 
@@ -159,26 +224,24 @@ def sweep(args) -> int:
         c.check_solver(args.solver)
         c.check_model_size(geometry, args.order, args.resolution)
     warn_outside_domain(cal, c.moduli(m))
+    damping = damping_from_args(args)
     sw = chain_sweep(
         cal,
         np.geomspace(args.fmin_hz, args.fmax_hz, args.n),
         m,
         geometry,
-        rayleigh_a_per_s=args.rayleigh_a,
-        rayleigh_b_s=args.rayleigh_b,
-        loss_factor=args.loss_factor,
+        damping=damping,
         pressure_pa=args.pressure,
     )
     check_sweep_finite(sw, args)
     keys = sw.outputs[:2]  # α and β: the incus face's u_x follows from them
     checks = []
     if fe_freq.size:
-        from isj.fem.dynamics import Damping, harmonic_outputs
+        from isj.fem.dynamics import harmonic_outputs
         from isj.fem.model import PedicleJointModel
 
         warn_fe_settings(cal, args.order, args.resolution)
         fem_model = PedicleJointModel(geometry, args.order, args.resolution, solver=args.solver)
-        damping = Damping(args.rayleigh_a, args.rayleigh_b, args.loss_factor)
 
         def fe_response(f):
             return harmonic_outputs(fem_model, f, m, damping, args.pressure)
@@ -199,6 +262,7 @@ def sweep(args) -> int:
         "n_freq": int(args.n),
         "natural_freq_hz": [float(v) for v in sw.natural_freq_hz],
         "damping_ratio": [float(v) for v in sw.damping_ratio],
+        "damping": damping.to_dict(),
         "fe_checks": checks,
         # a check that is not finite never passes (check_sweep_finite refused the lumped side)
         "passed": all(ck["passed"] for ck in checks),
