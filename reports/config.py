@@ -99,18 +99,73 @@ class CalibrationConfig:
     seed: int = 2026
 
 
+def _damping_tables(name: str = "published") -> dict:
+    from isj.damping import Damping
+
+    return Damping.preset(name).to_dict()
+
+
 @dataclass(frozen=True)
 class SweepConfig:
-    """Frequency response (docs/dynamics.md §4): band, damping, FE spot checks, modes."""
+    """Frequency response (docs/dynamics.md §4): band, damping, FE spot checks, modes.
+
+    The damping (docs/dynamics.md §4.3, :class:`isj.damping.Damping`): ``damping`` names a
+    preset (``published``, ``uniform-rayleigh``, ``undamped``); ``loss_factor``,
+    ``rayleigh_a_per_s`` and ``rayleigh_b_s`` change it, each a number (every region, ear part and
+    spring set) or a table by name (``loss_factor = {gap = 0.2}``), and
+    ``cochlear_impedance_pa_s_m3`` sets the cochlear resistance. The resolved configuration
+    lists every value.
+    """
 
     fmin_hz: float = 100.0
     fmax_hz: float = 40e3
     n_freq: int = 300
     fe_checks: int = 2
-    rayleigh_a_per_s: float = 0.0
-    rayleigh_b_s: float = 1e-4
-    loss_factor: float = 0.0
+    damping: str = "published"
+    rayleigh_a_per_s: dict = field(default_factory=lambda: _damping_tables()["rayleigh_a_per_s"])
+    rayleigh_b_s: dict = field(default_factory=lambda: _damping_tables()["rayleigh_b_s"])
+    loss_factor: dict = field(default_factory=lambda: _damping_tables()["loss_factor"])
+    cochlear_impedance_pa_s_m3: float = field(
+        default_factory=lambda: _damping_tables()["cochlear_impedance_pa_s_m3"]
+    )
     n_modes: int = 6
+
+    #: The damping's keys, resolved by :meth:`resolve_values` before the section is built.
+    DAMPING_KEYS: ClassVar[tuple[str, ...]] = (
+        "rayleigh_a_per_s",
+        "rayleigh_b_s",
+        "loss_factor",
+        "cochlear_impedance_pa_s_m3",
+    )
+
+    @classmethod
+    def resolve_values(cls, values: dict) -> dict:
+        """The file's keys with the damping resolved: the preset's tables, then the keys given."""
+        from isj.damping import Damping
+
+        values = dict(values)
+        preset = values.get("damping", "published")
+        if not isinstance(preset, str):
+            raise ConfigError(f"sweep.damping = {preset!r}: must be a preset name (a string)")
+        try:
+            d = Damping.preset(preset)
+            for k in cls.DAMPING_KEYS:
+                if k in values:
+                    v = values[k]
+                    if isinstance(v, bool) or not isinstance(v, int | float | dict):
+                        raise ConfigError(
+                            f"sweep.{k} = {v!r}: must be a number or a table of numbers by name"
+                        )
+                    d = d.replace(**{k: v})
+        except InvalidParameter as exc:
+            raise ConfigError(f"sweep.{exc}") from None
+        return values | {k: v for k, v in d.to_dict().items()}
+
+    def damping_model(self):
+        """The resolved :class:`isj.damping.Damping`."""
+        from isj.damping import Damping
+
+        return Damping.from_dict({k: getattr(self, k) for k in self.DAMPING_KEYS})
 
 
 @dataclass(frozen=True)
@@ -165,6 +220,8 @@ def _toml_value(v) -> str:
         return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
     if isinstance(v, tuple | list):
         return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    if isinstance(v, dict):  # an inline table (the damping's values by name)
+        return "{" + ", ".join(f"{k} = {_toml_value(x)}" for k, x in v.items()) + "}"
     raise TypeError(f"cannot write {type(v).__name__} to TOML")
 
 
@@ -188,6 +245,10 @@ def _coerce(where: str, value, default):
         if not isinstance(value, list | tuple) or not value:
             raise ConfigError(f"{where} = {value!r}: must be a non-empty list")
         return tuple(_coerce(where, v, default[0]) for v in value)
+    if isinstance(default, dict):  # a table by name (resolved in full by the section first)
+        if not isinstance(value, dict):
+            raise ConfigError(f"{where} = {value!r}: must be a table")
+        return {k: _coerce(f"{where}.{k}", v, 0.0) for k, v in value.items()}
     raise TypeError(default)
 
 
@@ -198,6 +259,8 @@ def _build_section(name: str, values: dict):
     for key in values:
         if key not in allowed:
             raise ConfigError(f"unknown key {name}.{key}; valid keys of [{name}]: {', '.join(allowed)}")
+    if hasattr(default, "resolve_values"):  # keys that depend on each other (the sweep's damping)
+        values = default.resolve_values(values)
     coerced = {k: _coerce(f"{name}.{k}", v, allowed[k]) for k, v in values.items()}
     try:
         return dataclasses.replace(default, **coerced)
@@ -243,8 +306,7 @@ def _check(cfg: ReportConfig) -> None:
     need(s.fmax_hz > s.fmin_hz, "sweep.fmax_hz", s.fmax_hz, f"must be > sweep.fmin_hz = {s.fmin_hz:g} Hz")
     need(2 <= s.n_freq <= 100_000, "sweep.n_freq", s.n_freq, "must be in [2, 100000]")
     need(0 <= s.fe_checks <= 20, "sweep.fe_checks", s.fe_checks, "must be in [0, 20]")
-    for k in ("rayleigh_a_per_s", "rayleigh_b_s", "loss_factor"):
-        need(getattr(s, k) >= 0, f"sweep.{k}", getattr(s, k), "must be >= 0")
+    # the damping's values were checked by isj.damping.Damping when the section was resolved
     need(1 <= s.n_modes <= 30, "sweep.n_modes", s.n_modes, "must be in [1, 30]")
 
 

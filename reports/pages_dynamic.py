@@ -8,6 +8,23 @@ from . import figures
 from .layout import pct, ratio, text_block, urad, wrap
 
 
+def damping_caption(sweep: dict) -> str:
+    """The joint model's damping in a few words: its preset, loss factors and Rayleigh terms by value."""
+    from isj.design import REGIONS
+
+    d = sweep["damping"]
+    parts = []
+    for key, label, unit in (("loss_factor", "eta", ""), ("rayleigh_a_per_s", "a", " 1/s"),
+                             ("rayleigh_b_s", "b", " s")):  # fmt: skip
+        by_value: dict[float, list[str]] = {}
+        for r in REGIONS:
+            by_value.setdefault(d[key][r], []).append(r)
+        if set(by_value) != {0.0}:
+            parts.append(", ".join(f"{label} = {v:g}{unit} ({' '.join(rs)})" for v, rs in by_value.items()))
+    preset = sweep.get("damping_preset", "")
+    return (f"{preset}: " if preset else "") + ("; ".join(parts) or "none")
+
+
 def convergence_page(fig, conv: dict):
     studies = conv["studies"]
     dirs = sorted({s["direction"] for s in studies})
@@ -123,11 +140,8 @@ def sweep_page(fig, sweep: dict, arrays: dict):
         if freq[0] <= f <= freq[-1]:
             for ax in (ax_mag, ax_ph):
                 ax.axvline(f, color="k", ls=":", lw=0.7)
-    d = sweep["damping"]
     ax_mag.set_title(
-        f"base design; Rayleigh a = {d['rayleigh_a_per_s']:g} 1/s, b = {d['rayleigh_b_s']:g} s; loss factor "
-        f"{d['loss_factor']:g}; dotted: FE in-plane modes",
-        fontsize=8,
+        f"base design; damping {damping_caption(sweep)}; dotted: FE in-plane modes", fontsize=8, wrap=True
     )
     lines = ["FE harmonic spot checks (lumped / FE):"]
     for c in sweep["fe_checks"]:
@@ -242,5 +256,3 @@ def ear_page(fig, ear: dict, arrays: dict, cases: dict):
         "model, which is loaded by a fixed pressure on the incus."
     )
     text_block(fig, 0.07, 0.12, wrap(note, 110), fontsize=7)
-
-

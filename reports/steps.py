@@ -241,17 +241,21 @@ def sweep_step(ctx: Context) -> tuple[dict, dict]:
     cfg = ctx.config
     s = cfg.sweep
     cal = ctx.calibration
-    damping = {k: getattr(s, k) for k in ("rayleigh_a_per_s", "rayleigh_b_s", "loss_factor")}
+    damping = s.damping_model()  # per region (docs/dynamics.md §4.3), every value resolved
     freq = np.geomspace(s.fmin_hz, s.fmax_hz, s.n_freq)
     sw = chain_sweep(
-        cal, freq, cfg.design.materials(), cfg.geometry, pressure_pa=cfg.design.pressure_pa, **damping
+        cal, freq, cfg.design.materials(), cfg.geometry, pressure_pa=cfg.design.pressure_pa, damping=damping
     )
     OUTPUTS, H = sw.outputs, sw.response  # the chain's output names and response
     design = ctx.base_design()
 
     def fe_response(f):
         """The FE harmonic outputs at ``f`` through the FE result cache."""
-        hs = ctx.settings | {"kind": "harmonic", "freq_hz": [float(v) for v in f]} | damping
+        hs = ctx.settings | {
+            "kind": "harmonic",
+            "freq_hz": [float(v) for v in f],
+            "damping": damping.to_dict(),
+        }
         rec = run_designs(
             [design], evaluate_harmonic, hs, ctx.fe_cache_dir, max_workers=0, progress=ctx.progress
         )
@@ -281,7 +285,8 @@ def sweep_step(ctx: Context) -> tuple[dict, dict]:
         "outputs": list(OUTPUTS),
         "fmin_hz": s.fmin_hz,
         "fmax_hz": s.fmax_hz,
-        "damping": damping,
+        "damping": damping.to_dict(),
+        "damping_preset": s.damping,
         # the chain's poles: undamped natural frequencies (damping leaves them) and damping ratios
         "lumped_natural_freq_hz": [float(v) for v in sw.natural_freq_hz],
         "lumped_damped_pole_freq_hz": [float(v) for v in sw.natural_freq_hz],
