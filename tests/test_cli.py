@@ -250,3 +250,146 @@ def test_no_module_over_500_lines():
     }
     assert {k: v for k, v in sizes.items() if v > 500} == {}
     assert sizes["isj/cli.py"] < 30  # the entry point only re-exports main
+
+
+# -- issue 17: sizes, non-finite results, whole output sets, the scheduler, before computing
+
+
+def test_resolution_refused_with_a_memory_estimate(capsys):
+    from isj.fem.sizing import MAX_MODEL_BYTES, estimate_mesh_size
+
+    assert estimate_mesh_size(None, 2, 6.0)[2] > MAX_MODEL_BYTES  # in the option's range, too large
+    code, out, err = run(capsys, ["fem", "solve", "--resolution", "6"])
+    assert code == 2 and out == "" and len(err.strip().splitlines()) == 1
+    assert "--resolution = 6" in err and "GiB" in err and "must be <=" in err
+    allowed = float(err.rsplit("must be <= ", 1)[1].split()[0])
+    assert estimate_mesh_size(None, 2, allowed)[2] <= MAX_MODEL_BYTES < estimate_mesh_size(None, 2, 6.0)[2]
+    code, _, err = run(capsys, ["ear", "cases", "--order", "1", "--resolution", "8"])  # P1: 29 GiB
+    assert code == 2 and "P1 model" in err and "--resolution = 8" in err
+
+
+def test_solver_not_installed_refused_before_meshing(capsys, tmp_path, monkeypatch):
+    from isj.fem.solvers import available_backends
+
+    missing = [b for b in ("cholmod", "pardiso") if b not in available_backends()]
+    if not missing:
+        pytest.skip("every solver is installed here")
+    monkeypatch.setenv("ISJ_CACHE_DIR", str(tmp_path))
+    code, out, err = run(capsys, ["fem", "solve", "--solver", missing[0], *COARSE])
+    assert code == 2 and out == "" and "--solver" in err and len(err.strip().splitlines()) == 1
+    assert not list(tmp_path.iterdir())  # no mesh was made, so no mesh cache entry
+
+
+def test_non_finite_result_is_one_line_not_json_nan(capsys, monkeypatch):
+    import isj.calibration.checks as checks
+
+    real = checks.lumped_static
+
+    def nan_static(*a, **k):
+        r = real(*a, **k)
+        return type(r)(**{**r.__dict__, "alpha_rad": np.full_like(r.alpha_rad, np.nan)})
+
+    monkeypatch.setattr(checks, "lumped_static", nan_static)
+    code, out, err = run(capsys, ["lumped", "solve", "--json", "--pedicle-e", "8e9"])
+    assert code == 2 and out == "" and len(err.strip().splitlines()) == 1
+    assert "not finite" in err and "--pedicle-e 8e+09" in err and "alpha_rad" in err
+
+
+def test_print_json_never_writes_nan(capsys):
+    from isj._cli import _common as c
+
+    with pytest.raises(ValueError):
+        c.print_json({"x": float("nan")})
+    with pytest.raises(c.UsageError, match="y.z\\[1\\] = inf"):
+        c.check_finite({"y": {"z": [1.0, float("inf")]}}, "--a 1")
+    c.check_finite({"y": np.ones(3), "n": 3, "s": "text"}, "--a 1")  # finite: no error
+
+
+def test_sweep_with_nan_damping_ratios_never_passes(capsys, tmp_path, monkeypatch):
+    import dataclasses
+
+    import isj.calibration.sweeps as sweeps
+
+    real = sweeps.chain_sweep
+
+    def nan_sweep(*a, **k):
+        sw = real(*a, **k)
+        return dataclasses.replace(sw, damping_ratio=np.full_like(sw.damping_ratio, np.nan))
+
+    monkeypatch.setattr(sweeps, "chain_sweep", nan_sweep)
+    out = tmp_path / "s"
+    code, text, err = run(capsys, ["sweep", "--fe-checks", "0", "--n", "20", "--out", str(out), "--json"])
+    assert code == 2 and text == "" and "damping_ratio" in err and "--damping published" in err
+    assert not list(tmp_path.iterdir())
+
+
+def test_sweep_files_replaced_as_a_set(capsys, tmp_path, monkeypatch):
+    import isj.lumped.plots as plots
+
+    out = tmp_path / "s"
+    argv = ["sweep", "--fe-checks", "0", "--n", "20", "--out", str(out)]
+    assert run(capsys, argv)[0] == 0
+    names = {"sweep.csv", "sweep.npz", "bode.png", "sweep.json"}
+    first = {p.name: p.read_bytes() for p in out.iterdir()}
+    assert set(first) == names
+
+    def interrupted(*a, **k):  # after the CSV and the NPZ of the second run were written
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(plots, "save_bode", interrupted)
+    code, _, err = run(capsys, [*argv, "--capsule-e", "8e7"])
+    assert code == 130
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == first  # the previous set, whole
+    assert [p.name for p in tmp_path.iterdir()] == ["s"]  # no partial folder left
+    monkeypatch.undo()
+    assert run(capsys, [*argv, "--capsule-e", "8e7"])[0] == 0
+    second = {p.name: p.read_bytes() for p in out.iterdir()}
+    assert set(second) == names and second["sweep.csv"] != first["sweep.csv"]
+    assert [p.name for p in tmp_path.iterdir()] == ["s"]  # the old set removed
+    (out / "notes.txt").write_text("mine")  # a folder holding other files is never replaced
+    code, _, err = run(capsys, argv)
+    assert code == 2 and "notes.txt" in err and (out / "notes.txt").read_text() == "mine"
+
+
+def test_scheduler_checked_by_connecting(capsys, tmp_path):
+    import socket
+    import time
+
+    from isj._cli._common import check_scheduler
+    from isj.errors import UsageError
+
+    with socket.create_server(("127.0.0.1", 0)) as server:  # something listening: accepted
+        port = server.getsockname()[1]
+        check_scheduler(f"tcp://127.0.0.1:{port}")
+        check_scheduler(f"127.0.0.1:{port}")
+    t0 = time.perf_counter()
+    with pytest.raises(UsageError, match="no scheduler reachable"):
+        check_scheduler(f"tcp://127.0.0.1:{port}")  # closed now
+    assert time.perf_counter() - t0 < 5
+    for bad in ("inproc://x", "tcp://127.0.0.1", "tcp://:80", "tcp://h:99999"):
+        with pytest.raises(UsageError, match="--scheduler"):
+            check_scheduler(bad)
+
+
+def test_lumped_solve_nu_of_the_calibration_accepted(capsys):
+    code, out, _ = run(capsys, ["lumped", "solve", "--json", "--nu", "0.3"])
+    ref = json.loads(run(capsys, ["lumped", "solve", "--json"])[1])
+    assert code == 0 and json.loads(out) == ref
+    code, _, err = run(capsys, ["lumped", "solve", "--nu", "0.3000001"])
+    assert code == 2 and "--nu" in err and "calibrated at nu = 0.3" in err
+
+
+def test_out_path_checks_leave_nothing(tmp_path, monkeypatch):
+    from isj._cli import _common as c
+    from isj.errors import UsageError
+
+    monkeypatch.chdir(tmp_path)
+    assert c.check_out_path("a/b/c.vtu", "--vtu", ".vtu") is not None
+    assert c.check_out_dir("a/b", "--out", frozenset()) is not None
+    (tmp_path / "f").write_text("")
+    for args in (("f/x.vtu", "--vtu", ".vtu"), ("x.txt", "--vtu", ".vtu"), ("", "--vtu", ".vtu")):
+        with pytest.raises(UsageError, match="--vtu"):
+            c.check_out_path(*args)
+    with pytest.raises(UsageError, match="not a folder"):
+        c.check_out_dir("f/sub", "--out")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["f"]  # the probe folders are gone
