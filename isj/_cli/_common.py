@@ -175,7 +175,7 @@ def add_order_resolution(p: argparse.ArgumentParser, what: str = "mesh") -> None
         type=resolution_option("--resolution"),
         default=1.0,
         help=f"{what} refinement factor in [{lo:g}, {hi:g}]: 2 halves every element size (default 1); "
-        "a model whose estimated memory exceeds 16 GiB is refused",
+        "a model whose estimated memory is over the limit (isj.fem.sizing, 16 GiB) is refused",
     )
 
 
