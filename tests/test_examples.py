@@ -151,8 +151,11 @@ def test_whole_ear(run):
         assert abs(float(lu_s) / float(fe_s) - 1) < tol
     rows = re.findall(r"^\s+(\d+\.\d)\s+(\d+\.\d+)\s+(\d+\.\d+)$", out, flags=re.M)
     assert len(rows) == 8 and float(rows[0][0]) == 100.0
-    assert float(rows[0][1]) * 1e-9 == pytest.approx(static[0], rel=0.01)  # 100 Hz: the static limit
-    assert float(rows[0][2]) * 1e-9 == pytest.approx(static[1], rel=0.01)
+    # 100 Hz: the static limit over the loss factors (ligaments 0.15–0.3, drum 0.1): a few % below it
+    at_100 = np.abs(ear_model(default_calibration().factor_array(), **moduli(m)).freq_resp([100.0])[0])
+    assert float(rows[0][1]) * 1e-9 == pytest.approx(at_100[0], rel=1e-3)
+    assert float(rows[0][2]) * 1e-9 == pytest.approx(at_100[1], rel=1e-3)
+    assert 0.9 < at_100[0] / static[0] < 1 and 0.9 < at_100[1] / static[1] < 1
     for name in ("umbo_m", "stapes_m"):
         assert value(out, f"FE check at 500 Hz: {name} relative difference") < 0.03
 

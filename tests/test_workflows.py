@@ -197,6 +197,7 @@ def test_harmonic_comparison_errors_are_complex():
     assert comp.errors(1) == {"a": pytest.approx(0.0995037, rel=1e-6), "b": 0.5}
 
 
+@pytest.mark.filterwarnings("ignore::isj.errors.DampingWarning")  # b = 2e-5 s: ωb > 0.5 above 4 kHz
 def test_chain_sweep_is_the_chain_model(cal):
     from isj.lumped.dynamics import chain_model, frequency_response
 
