@@ -361,3 +361,14 @@ def test_cli_damping_options(tmp_path, capsys):
         assert err.startswith("isj: error:") and len(err.strip().splitlines()) == 1
         assert bad[0] in err or bad[1] in err
         assert not (tmp_path / "t").exists()
+
+
+def test_ear_modal_damping_uniform_loss_factor_is_half_eta():
+    from isj.fem.ear.ear_dynamics import modal_damping
+    from isj.fem.ear.middle_ear import MiddleEarModel
+
+    ear = MiddleEarModel()
+    f, zeta = modal_damping(ear, 3, damping=Damping.uniform(loss_factor=0.08))
+    np.testing.assert_allclose(zeta, 0.04, rtol=1e-8)
+    f, zeta = modal_damping(ear, 3)  # published: the drum's 0.1, the ligaments' and the cochlea's
+    assert np.all(zeta > 0.05) and np.all(f > 1e3)

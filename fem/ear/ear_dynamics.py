@@ -467,3 +467,27 @@ def natural_frequencies(
         shapes_reduced=vec,
         shapes=np.asarray(model.T @ vec),
     )
+
+
+def modal_damping(
+    model,
+    n: int = 6,
+    materials: Materials | None = None,
+    ear_materials: EarMaterials | None = None,
+    masses: EarMasses | None = None,
+    damping: Damping | str | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The ``n`` lowest natural frequencies (Hz) and their damping ratios ζ by modal projection.
+
+    ζ_m = q_mᵀ L q_m / (2 ω_m²) + q_mᵀ C q_m / (2 ω_m) for the M_r-orthonormal undamped modes
+    (:func:`natural_frequencies`) and :func:`damping_data`'s L and C: exact for proportional
+    damping, the diagonal of the projected damping otherwise.
+    """
+    modes = natural_frequencies(model, n, materials, ear_materials, masses)
+    L, C = damping_data(model, damping, materials, ear_materials, masses)
+    p = model.pattern
+    Ls, Cs = (sp.csr_matrix((v, p.indices, p.indptr), shape=(p.n, p.n)) for v in (L, C))
+    q = modes.shapes_reduced
+    w = 2 * np.pi * modes.freq_hz
+    zeta = np.einsum("im,im->m", q, Ls @ q) / (2 * w**2) + np.einsum("im,im->m", q, Cs @ q) / (2 * w)
+    return modes.freq_hz, zeta
