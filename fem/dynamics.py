@@ -102,6 +102,7 @@ def harmonic(
     materials = materials or Materials()
     damping = resolve(damping)
     freqs = check_frequencies(freq_hz)
+    damping.check_names(model.regions)
     warn_rayleigh_band(damping, float(freqs.min()), float(freqs.max()), tuple(model.regions))
     red = model.reduction
     K, L, C, M = damping_matrices(model, materials, damping)
@@ -155,6 +156,7 @@ def damping_matrices(model, materials: Materials, damping: Damping):
     With K_r and M_r region r's stiffness and mass (:func:`region_weighted_data`),
     Z(ω) = K + iL + iωC − ω²M = Σ_r (1 + iη_r + iωb_r) K_r + (iωa_r − ω²) M_r.
     """
+    damping.check_names(model.regions)
     red = model.reduction
     kd, md = model.stiffness_data(materials), model.mass_data(materials)
     ld = region_weighted_data(model, materials, damping.loss_factor)

@@ -152,6 +152,17 @@ class Damping:
         )
         object.__setattr__(self, "cochlear_impedance_pa_s_m3", z)
 
+    def __reduce__(self):  # the read-only mappings do not pickle; the tables do
+        return (Damping.from_dict, (self.to_dict(),))
+
+    def check_names(self, names) -> None:
+        """InvalidParameter unless every one of ``names`` (a model's regions or parts) has a damping."""
+        unknown = sorted(set(names) - set(STIFFNESS_PARTS))
+        if unknown:
+            raise InvalidParameter(
+                f"region {unknown[0]!r} has no damping: regions must be among {', '.join(STIFFNESS_PARTS)}"
+            )
+
     def __hash__(self) -> int:
         return hash(
             tuple(tuple(getattr(self, f).items()) for f in _KINDS) + (self.cochlear_impedance_pa_s_m3,)
@@ -258,12 +269,15 @@ class Damping:
 
 
 def resolve(damping: Damping | str | None = None, **overrides) -> Damping:
-    """A :class:`Damping` from a damping, a preset name or None (published), then ``overrides``.
+    """A :class:`Damping` from a damping, its :meth:`Damping.to_dict`, a preset name or None
+    (published), then ``overrides``.
 
     ``overrides``: ``rayleigh_a_per_s``, ``rayleigh_b_s``, ``loss_factor`` (numbers for every
     name, or mappings), ``cochlear_impedance_pa_s_m3``; None values are ignored. The legacy
     keyword arguments of the models (``rayleigh_b_s=...``) come through here.
     """
+    if isinstance(damping, Mapping):
+        damping = Damping.from_dict(damping)
     d = Damping.preset(damping) if isinstance(damping, str) else (damping or Damping())
     if not isinstance(d, Damping):
         raise InvalidParameter(

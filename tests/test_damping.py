@@ -372,3 +372,13 @@ def test_ear_modal_damping_uniform_loss_factor_is_half_eta():
     np.testing.assert_allclose(zeta, 0.04, rtol=1e-8)
     f, zeta = modal_damping(ear, 3)  # published: the drum's 0.1, the ligaments' and the cochlea's
     assert np.all(zeta > 0.05) and np.all(f > 1e3)
+
+
+def test_damping_pickles_and_a_region_without_damping_is_named():
+    import pickle
+
+    d = Damping(loss_factor={"gap": 0.2}, rayleigh_b_s={"eardrum": 1e-6})
+    assert pickle.loads(pickle.dumps(d)) == d  # for process pools
+    model = _cantilever(("block",))
+    with pytest.raises(InvalidParameter, match="'block'"):
+        dynamics.harmonic(model, [100.0], MAT)
