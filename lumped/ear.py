@@ -79,6 +79,8 @@ from isj.validate import check_frequencies
 
 from .damping import damping_terms, region_stiffness
 from .dynamics import SecondOrderModel, _coupling, joint_coupling
+from .ear_drum import DrumModes, mode_blocks, mode_scale, resolve_modes
+from .ear_drum import freq_resp as condensed_freq_resp
 from .model import moduli_arrays
 
 OUTPUTS = ("umbo_m", "stapes_m", "alpha_rad", "beta_rad")
@@ -208,11 +210,19 @@ class LumpedEar:
     system : the second-order model (input: pressure, Pa; outputs :data:`OUTPUTS`)
     coordinates : names of q
     umbo_direction : (3,) or (n_design, 3) unit direction of the umbo's static motion
+    drum_modes : the coordinates of the drum's fixed-interface modes (``drum_1`` …), condensed
+        exactly at each frequency by :func:`lumped.ear_drum.freq_resp`; None without modes
     """
 
     system: SecondOrderModel
     coordinates: tuple[str, ...]
     umbo_direction: np.ndarray
+    drum_modes: slice | None = None
+
+    def _freq_resp(self, freq_hz) -> np.ndarray:
+        if self.drum_modes is None:
+            return self.system.freq_resp(freq_hz)
+        return condensed_freq_resp(self.system, self.drum_modes, freq_hz)
 
     @property
     def batched(self) -> bool:
@@ -226,7 +236,7 @@ class LumpedEar:
 
     def freq_resp(self, freq_hz, pressure_pa: float = 1.0) -> np.ndarray:
         """Complex outputs at ``freq_hz`` (Hz): (n_freq, 4) or (n_design, n_freq, 4) (SI)."""
-        return self.system.freq_resp(freq_hz)[..., 0] * pressure_pa
+        return self._freq_resp(freq_hz)[..., 0] * pressure_pa
 
     def response(self, freq_hz, pressure_pa: float = 1.0):
         """:meth:`freq_resp` as an :class:`isj.responses.FrequencyResponse` (one design; same numbers).
@@ -239,7 +249,7 @@ class LumpedEar:
         if self.batched:
             raise InvalidParameter("LumpedEar.response: one design only; use freq_resp for many")
         f = check_frequencies(freq_hz)
-        H = self.system.freq_resp(f) * pressure_pa
+        H = self._freq_resp(f) * pressure_pa
         units = tuple(UNITS[k].removesuffix("/Pa") for k in OUTPUTS)
         return FrequencyResponse(f, H, OUTPUTS, units, input_amplitude=pressure_pa)
 
@@ -262,6 +272,7 @@ def ear_model(
     rayleigh_b_s=None,
     loss_factor=None,
     damping: Damping | str | None = None,
+    drum_modes: DrumModes | int | None = None,
     **moduli,
 ) -> LumpedEar:
     """Assemble the lumped ear (see the module docstring) for one design or arrays of moduli.
@@ -282,6 +293,10 @@ def ear_model(
     body : "rigid" (six dofs) or "rotation" (one rotation about the nominal axis)
     damping : :class:`isj.damping.Damping` or a preset name (default: the published loss factors,
         docs/dynamics.md §4.3)
+    drum_modes : the drum's fixed-interface modes (docs/ear.md §5.12): None, the one static shape
+        (valid below the first drum mode); an int n, the lowest n of the shipped
+        :func:`lumped.ear_drum.default_drum_modes` (default anatomy), with their static residual;
+        or :class:`lumped.ear_drum.DrumModes` (measure others with :func:`fem.ear.drum_modes.drum_modes`)
     rayleigh_a_per_s, rayleigh_b_s, loss_factor : changes to ``damping`` (1/s, s, dimensionless): a
         number for every part or a mapping name → value; None leaves it
     **moduli : the joint model's moduli (Pa), floats or broadcastable arrays (``lumped.model.MODULI``)
@@ -290,6 +305,7 @@ def ear_model(
     jg = joint_geometry or Geometry()
     mat = ear_materials or EarMaterials()
     drum = (eardrum or DEFAULT_EARDRUM).with_modulus(mat.drum_e_pa)
+    modes = resolve_modes(drum_modes, mat.drum_e_pa)
     ms = masses or EarMasses()
     if body not in ("rigid", "rotation"):
         raise InvalidParameter(f"body = {body!r}: must be 'rigid' or 'rotation'")
@@ -302,6 +318,14 @@ def ear_model(
         raise InvalidParameter(
             f"eardrum.reference_m = {drum.reference_m!r}: must be the body's reference point {tuple(x_b)!r} m"
         )
+    if modes is not None and np.linalg.norm(np.asarray(modes.reference_m) - x_b) > 1e-9:
+        raise InvalidParameter(f"drum_modes.reference_m = {modes.reference_m!r}: must be {tuple(x_b)!r} m")
+    # the drum's uncoupled shape: the static one, or the residual of the kept modes
+    C_w, m_w, cross_w = (
+        (drum.compliance_m3_per_pa, drum.uncoupled_mass_kg_m4, drum.cross_mass)
+        if modes is None
+        else (modes.residual_compliance_m3_per_pa, modes.residual_mass_kg_m4, modes.residual_cross_mass)
+    )
 
     # ---- coordinates: body, [alpha, beta], w
     if body == "rigid":
@@ -316,9 +340,11 @@ def ear_model(
     if joint:
         names += ["alpha", "beta"]
     names.append("w")
+    iw = len(names) - 1
+    n_modes = 0 if modes is None else modes.n_modes
+    names += [f"drum_{j + 1}" for j in range(n_modes)]
     n = len(names)
     ia = nb  # alpha, beta at ia, ia + 1
-    iw = n - 1
     body_map = np.zeros((6, n))  # body (u, θ) at x_b from q
     body_map[:, :nb] = Jb
 
@@ -371,7 +397,10 @@ def ear_model(
         )
 
     K_drum = on_body(np.asarray(drum.stiffness)).copy()
-    K_drum[:, iw, iw] += area_ring**2 / drum.compliance_m3_per_pa
+    K_drum[:, iw, iw] += area_ring**2 / C_w
+    # the modes (none: zeros): stiffness ω² m_s, mass coupling with the body, load
+    K_modes, M_modes, B_modes = mode_blocks(modes, body_map, iw + 1, mode_scale(drum.mass))
+    K_drum += K_modes
     parts = {
         "eardrum": K_drum,
         "mallear_ligament": on_body(grounded_springs(x_b, pts, k_mallear)),
@@ -390,10 +419,11 @@ def ear_model(
     M_ossicle = rigid_mass(ms.malleus_incus_kg, ms.malleus_incus_gyration_m, centroid, x_b)
     c_s = np.asarray(ms.stapes_centroid(g), dtype=float)
     M_drum = on_body(np.asarray(drum.mass)).copy()
-    cross = body_map.T @ np.asarray(drum.cross_mass) * area_ring
+    cross = body_map.T @ np.asarray(cross_w) * area_ring
     M_drum[:, :, iw] += cross
     M_drum[:, iw, :] += cross
-    M_drum[:, iw, iw] += drum.uncoupled_mass_kg_m4 * area_ring**2
+    M_drum[:, iw, iw] += m_w * area_ring**2
+    M_drum += M_modes
     masses = {
         "eardrum": M_drum,
         "incus": on_body(M_ossicle),
@@ -418,6 +448,7 @@ def ear_model(
     Bq = np.zeros((n, 1))
     Bq[:, 0] = body_map.T @ np.asarray(drum.load_per_pa)
     Bq[iw, 0] += area_ring
+    Bq[:, 0] += B_modes
     umbo_map = point_map(g.umbo_m, x_b)[0] @ body_map  # (3, n)
     q_static = np.linalg.solve(K, np.broadcast_to(Bq, (nd, n, 1)))[..., 0]
     u_umbo = q_static @ umbo_map.T  # (nd, 3)
@@ -434,4 +465,5 @@ def ear_model(
         K, Mb, E_visc, K_loss = K[0], Mb[0], E_visc[0], K_loss[0]
         Bb, C, d_umbo = Bb[0], C[0], d_umbo[0]
     system = SecondOrderModel(M=Mb, E=E_visc, K=K, B=Bb, C=C, K_loss=K_loss)
-    return LumpedEar(system=system, coordinates=tuple(names), umbo_direction=d_umbo)
+    modal = slice(iw + 1, n) if n_modes else None
+    return LumpedEar(system=system, coordinates=tuple(names), umbo_direction=d_umbo, drum_modes=modal)

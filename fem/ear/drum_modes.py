@@ -1,0 +1,182 @@
+"""The eardrum's component modes on the FE pars tensa (docs/ear.md §5.12), for ``lumped.ear``.
+
+A Craig–Bampton reduction of the drum shell with the manubrium as the interface.
+The manubrium, tied to the malleus–incus body, moves rigidly with it (six dofs
+(u, θ) at :attr:`isj.ear.EarGeometry.body_reference_m`); the ring is clamped.
+The drum's displacement is written exactly-in-the-limit as
+
+    u = Ψ q_b + Σ_j φ_j η_j + r w,
+
+- Ψ (n_dof × 6): the constraint modes, the drum's static shape when the body moves by
+  a unit rigid motion, no pressure (Guyan: its stiffness ΨᵀKΨ and mass ΨᵀMΨ are the
+  ones :func:`fem.ear.lumped_params.eardrum_parameters` measures);
+- φ_j: the lowest fixed-interface modes, the drum's natural modes with the manubrium
+  held (K φ = ω² M φ on the interior dofs), mass-normalised (φᵀMφ = 1);
+- r: the static residual of the ear-canal pressure, the static shape under 1 Pa with
+  the manubrium held minus its part in the kept modes,
+  r = K⁻¹f − Σ_j φ_j (φ_jᵀf)/ω_j², which is K- and M-orthogonal to every φ_j.
+
+Ψ is K-orthogonal to every interior shape, so the reduced drum's stiffness is
+block diagonal (ΨᵀKΨ, diag ω_j², rᵀKr), its mass couples the interface with the
+modes (ΨᵀMφ_j) and the residual (ΨᵀMr), and its damping (η K + b K + a M per
+part, as the FE ear's) projects onto the same blocks exactly.
+
+The module returns the N lowest modes and the residual of all N, from which
+``lumped.ear_drum`` builds the residual of any n ≤ N by adding back the dropped
+modes (sums of positive terms, so no cancellation):
+C_n = C_N + Σ_{j>n} b_j²/ω_j², rᵀMr grows by Σ b_j²/ω_j⁴, ΨᵀMr by Σ c_j b_j/ω_j².
+With n = 0 the residual is the whole static pressure shape, and the reduced drum
+is :func:`fem.ear.lumped_params.eardrum_parameters`' (Guyan plus one static shape).
+
+This module may import from :mod:`isj` and :mod:`fem` only; it returns plain
+numbers (a dict whose keys are the fields of ``lumped.ear_drum.DrumModes``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from isj.design import InvalidParameter
+from isj.ear import EarGeometry, EarMaterials
+
+from ..solvers import lanczos_start
+from .constraints import rigid_body_modes
+from .eardrum import ear_canal_load, eardrum_mesh
+from .middle_ear import DRUM_DENSITY_KG_M3, eardrum_geometry
+from .shell import NDOF, ShellMaterial, mass_matrix, stiffness_matrix
+
+#: Modes the shipped data (``lumped/data/default_drum_modes.json``) holds: on the default drum the
+#: lowest 240 reach 24.9 kHz, past the 20 kHz of ``isj ear sweep``; the lowest 40, 6.1 kHz.
+DEFAULT_N_MODES = 240
+
+
+def drum_modes(
+    geometry: EarGeometry | None = None,
+    materials: EarMaterials | None = None,
+    n_modes: int = DEFAULT_N_MODES,
+    mesh_size_m: float = 0.25e-3,
+    density_kg_m3: float = DRUM_DENSITY_KG_M3,
+) -> dict:
+    """Measure the drum's fixed-interface modes and static residual (SI; see the module docstring).
+
+    Parameters
+    ----------
+    geometry : anatomy (m); the drum and the body's reference point come from it
+    materials : eardrum modulus (Pa), Poisson's ratio and thickness (m)
+    n_modes : number N of fixed-interface modes to keep (>= 1)
+    mesh_size_m : eardrum element size (m), as :class:`fem.ear.middle_ear.MiddleEarModel`'s
+    density_kg_m3 : eardrum density (kg/m³; an estimate), as :class:`isj.ear.EarMasses`'
+
+    Returns
+    -------
+    dict of plain numbers and lists, the fields of ``lumped.ear_drum.DrumModes``:
+
+    - ``freq_hz`` (N,): the modes' natural frequencies with the manubrium held (Hz), ascending;
+    - ``coupling`` (N, 6): ΨᵀMφ_j, each mode's mass coupling with the body's unit (u, θ)
+      (kg^½ per m, kg^½·m per rad);
+    - ``load_per_pa`` (N,): φ_jᵀf, each mode's generalized force per Pa (N·kg^-½/Pa); by
+      reciprocity its volume displacement per unit modal coordinate;
+    - ``residual_compliance_m3_per_pa``: fᵀr, the residual's volume displacement per Pa (m³/Pa);
+    - ``residual_mass_kg_m4``: r̂ᵀMr̂ of the residual scaled to unit volume, r̂ = r/(fᵀr) (kg/m⁴);
+    - ``residual_cross_mass`` (6,): ΨᵀMr̂ (kg/m², kg/m);
+    - ``reference_m`` (3,), ``drum_e_pa``, ``mesh_size_m``, ``density_kg_m3``: what they refer to.
+
+    Each mode's sign makes its load ≥ 0 (its largest coupling > 0 when the load vanishes), so
+    that the data are reproducible.
+    """
+    from scipy.sparse.linalg import LinearOperator, eigsh, splu
+
+    if isinstance(n_modes, bool) or not isinstance(n_modes, int | np.integer) or n_modes < 1:
+        raise InvalidParameter(f"n_modes = {n_modes!r}: must be an integer >= 1")
+    g = geometry or EarGeometry()
+    m = materials or EarMaterials()
+    mesh = eardrum_mesh(eardrum_geometry(g, mesh_size_m))
+    shell = ShellMaterial(m.drum_e_pa, m.drum_nu, m.drum_thickness_m, density_kg_m3)
+    K = stiffness_matrix(mesh.nodes_m, mesh.triangles, shell).tocsr()
+    M = mass_matrix(mesh.nodes_m, mesh.triangles, shell).tocsr()
+    f = ear_canal_load(mesh, 1.0)  # N per Pa; f · u = volume displacement (m³), medial positive
+    n = K.shape[0]
+
+    def dofs(nodes):
+        nodes = np.unique(np.asarray(nodes, dtype=np.int64))
+        return (NDOF * nodes[:, None] + np.arange(NDOF)).ravel(), nodes
+
+    ring, _ = dofs(mesh.node_sets["ring"])
+    manu, manu_nodes = dofs(mesh.node_sets["manubrium"])
+    fixed = np.zeros(n, dtype=bool)
+    fixed[ring] = True
+    fixed[manu] = True
+    free = np.flatnonzero(~fixed)
+    if not n_modes < free.size - 1:
+        raise InvalidParameter(f"n_modes = {n_modes!r}: must be < {free.size - 1} (the drum's free dofs)")
+    Kff = K[free][:, free].tocsc()
+    Mff = M[free][:, free].tocsc()
+    lu = splu(Kff)
+
+    # the six constraint modes (Guyan), as fem.ear.lumped_params does
+    x_ref = np.asarray(g.body_reference_m, dtype=float)
+    psi = np.zeros((n, 6))
+    psi[manu] = rigid_body_modes(mesh.nodes_m[manu_nodes], x_ref)
+    psi[free] = -lu.solve(np.asarray(K[free] @ psi))
+
+    # the fixed-interface modes: shift-invert about 0 with the interior's own factor
+    opinv = LinearOperator(Kff.shape, matvec=lu.solve, dtype=float)
+    w2, vec = eigsh(
+        Kff, k=int(n_modes), M=Mff, sigma=0.0, which="LM", OPinv=opinv, tol=1e-12,
+        v0=lanczos_start(free.size),  # fixed: the same modes on every run
+    )  # fmt: skip
+    order = np.argsort(w2)
+    w2, vec = w2[order], vec[:, order]
+    vec /= np.sqrt(np.einsum("im,im->m", vec, Mff @ vec))  # φᵀMφ = 1 to rounding
+    phi = np.zeros((n, n_modes))
+    phi[free] = vec
+    b = phi.T @ f
+    c = phi.T @ (M @ psi)  # (N, 6)
+    # a reproducible sign: the load positive, or the largest coupling where the load vanishes
+    big = c[np.arange(n_modes), np.argmax(np.abs(c), axis=1)]
+    tiny = np.abs(b) <= 1e-9 * np.abs(b).max()
+    sign = np.where(tiny, np.sign(big), np.sign(b))
+    sign[sign == 0] = 1.0
+    phi, b, c = phi * sign, b * sign, c * sign[:, None]
+
+    # the static residual of 1 Pa with the manubrium held, the kept modes removed
+    r = np.zeros(n)
+    r[free] = lu.solve(f[free])
+    r -= phi @ (b / w2)
+    compliance = float(f @ r)
+    if not compliance > 0:
+        raise RuntimeError(f"the static residual's compliance {compliance!r} m³/Pa is not positive")
+    r_hat = r / compliance
+    return {
+        "freq_hz": [float(v) for v in np.sqrt(w2) / (2 * np.pi)],
+        "coupling": c.tolist(),
+        "load_per_pa": [float(v) for v in b],
+        "residual_compliance_m3_per_pa": compliance,
+        "residual_mass_kg_m4": float(r_hat @ (M @ r_hat)),
+        "residual_cross_mass": [float(v) for v in psi.T @ (M @ r_hat)],
+        "reference_m": [float(v) for v in x_ref],
+        "drum_e_pa": float(m.drum_e_pa),
+        "mesh_size_m": float(mesh_size_m),
+        "density_kg_m3": float(density_kg_m3),
+    }
+
+
+def main(argv=None) -> int:
+    """Write the shipped modes: ``python -m isj.fem.ear.drum_modes PATH`` (default anatomy and mesh)."""
+    import argparse
+    import json
+
+    ap = argparse.ArgumentParser(description="measure the default drum's modes for lumped.ear_drum")
+    ap.add_argument("path", help="JSON file to write (lumped/data/default_drum_modes.json)")
+    ap.add_argument("--n-modes", type=int, default=DEFAULT_N_MODES)
+    args = ap.parse_args(argv)
+    d = drum_modes(n_modes=args.n_modes)
+    d["source"] = "fem.ear.drum_modes.drum_modes(): default EarGeometry, EarMaterials and drum mesh"
+    with open(args.path, "w") as fh:
+        json.dump(d, fh, indent=0, sort_keys=True)
+        fh.write("\n")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
