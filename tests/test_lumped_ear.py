@@ -170,6 +170,9 @@ def test_cli_ear_sweep_rigid(tmp_path, capsys):
 
     out = tmp_path / "s"
     argv = ["ear", "sweep", "--rigid-joint", "--n", "40", "--fmax-hz", "5000", "--out", str(out), "--json"]
+    # the old uniform damping, which the 3 % below holds for: with the published loss factors the
+    # lumped drum's single shape misses the FE drum's first mode (1.66 kHz) by 7.7 % at 1.36 kHz
+    argv += ["--damping", "uniform-rayleigh"]
     assert main(argv) == 0
     summary = json.loads(capsys.readouterr().out)
     assert summary["passed"] and summary["fe_check"]["umbo_m_rel_error"] < 1e-3
@@ -199,7 +202,7 @@ def test_cli_ear_sweep_rigid(tmp_path, capsys):
     # error 14 % for the umbo, 13 % for the stapes: above the FE's eardrum modes the lumped drum's
     # one shape is off, documented above): exit 1
     argv = ["ear", "sweep", "--rigid-joint", "--n", "5", "--fmax-hz", "20000", "--out", str(out), "--json"]
-    assert main(argv) == 1
+    assert main([*argv, "--damping", "uniform-rayleigh"]) == 1  # the damping these numbers are for
     summary = json.loads(capsys.readouterr().out)
     assert summary["fe_check"]["passed"] and summary["fe_checks"][0]["passed"]
     assert summary["fe_checks"][1]["umbo_m_rel_error"] == pytest.approx(0.14, abs=0.02)
