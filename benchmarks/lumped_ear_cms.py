@@ -1,4 +1,4 @@
-"""The lumped ear with the drum's component modes (docs/ear.md §5.12) against FE harmonic solves.
+"""The lumped ear with the drum's component modes (docs/ear.md §5.10) against FE harmonic solves.
 
 Usage: ``.venv/bin/python benchmarks/lumped_ear_cms.py [--drum-mesh-m H] [--joint-freq-hz F ...]
 [--resolution R] [--json PATH]``

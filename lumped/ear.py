@@ -293,7 +293,7 @@ def ear_model(
     body : "rigid" (six dofs) or "rotation" (one rotation about the nominal axis)
     damping : :class:`isj.damping.Damping` or a preset name (default: the published loss factors,
         docs/dynamics.md §4.3)
-    drum_modes : the drum's fixed-interface modes (docs/ear.md §5.12): None, the one static shape
+    drum_modes : the drum's fixed-interface modes (docs/ear.md §5.10): None, the one static shape
         (valid below the first drum mode); an int n, the lowest n of the shipped
         :func:`lumped.ear_drum.default_drum_modes` (default anatomy), with their static residual;
         or :class:`lumped.ear_drum.DrumModes` (measure others with :func:`fem.ear.drum_modes.drum_modes`)

@@ -1,9 +1,9 @@
-"""The eardrum's component modes on the FE pars tensa (docs/ear.md §5.12), for ``lumped.ear``.
+"""The eardrum's component modes on the FE pars tensa (docs/ear.md §5.10), for ``lumped.ear``.
 
 A Craig–Bampton reduction of the drum shell with the manubrium as the interface.
 The manubrium, tied to the malleus–incus body, moves rigidly with it (six dofs
 (u, θ) at :attr:`isj.ear.EarGeometry.body_reference_m`); the ring is clamped.
-The drum's displacement is written exactly-in-the-limit as
+The drum's displacement is written (exactly when every mode is kept) as
 
     u = Ψ q_b + Σ_j φ_j η_j + r w,
 
