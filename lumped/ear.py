@@ -305,7 +305,7 @@ def ear_model(
     jg = joint_geometry or Geometry()
     mat = ear_materials or EarMaterials()
     drum = (eardrum or DEFAULT_EARDRUM).with_modulus(mat.drum_e_pa)
-    modes = resolve_modes(drum_modes, mat.drum_e_pa)
+    modes = resolve_modes(drum_modes, mat.drum_e_pa, eardrum is None or eardrum == DEFAULT_EARDRUM)
     ms = masses or EarMasses()
     if body not in ("rigid", "rotation"):
         raise InvalidParameter(f"body = {body!r}: must be 'rigid' or 'rotation'")

@@ -159,13 +159,22 @@ def default_drum_modes() -> DrumModes:
     return DrumModes.from_dict(json.loads(ref.read_text()))
 
 
-def resolve_modes(drum_modes, drum_e_pa: float) -> DrumModes | None:
-    """``ear_model``'s ``drum_modes``: None (no modes), an int n (the shipped lowest n), or data."""
+def resolve_modes(drum_modes, drum_e_pa: float, default_drum: bool = True) -> DrumModes | None:
+    """``ear_model``'s ``drum_modes``: None (no modes), an int n (the shipped lowest n), or data.
+
+    ``default_drum``: whether the Guyan part is the shipped drum's; the shipped modes belong to it
+    only (a drum measured on another mesh or anatomy needs its own :class:`DrumModes`).
+    """
     if drum_modes is None:
         return None
     if isinstance(drum_modes, DrumModes):
         modes = drum_modes
     elif isinstance(drum_modes, int | np.integer) and not isinstance(drum_modes, bool):
+        if not default_drum:
+            raise InvalidParameter(
+                f"drum_modes = {drum_modes!r}: the shipped modes belong to the shipped drum; with another "
+                "eardrum pass its own DrumModes (fem.ear.drum_modes.drum_modes)"
+            )
         modes = default_drum_modes().truncated(int(drum_modes))
     else:
         raise InvalidParameter(

@@ -242,7 +242,9 @@ def test_bad_drum_modes(value):
         ear_model(drum_modes=value)
 
 
-def test_bad_mode_data(modes):
+def test_bad_mode_data(drum, modes):
+    with pytest.raises(InvalidParameter, match="shipped drum"):
+        ear_model(eardrum=drum, drum_modes=10)  # the coarse drum with the default drum's modes
     with pytest.raises(InvalidParameter, match="reference_m"):
         ear_model(drum_modes=dataclasses.replace(modes, reference_m=(0.0, 0.0, 0.0)))
     with pytest.raises(InvalidParameter, match="ascending"):
