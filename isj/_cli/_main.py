@@ -12,10 +12,10 @@ import sys
 from isj import __version__
 from isj.errors import IsjError, UsageError
 
-from . import _common, calibrate, ear, explore, fem, lumped, report, sweep
+from . import _common, calibrate, ear, explore, fem, lumped, report, rom, sweep
 
 #: Command modules in ``isj --help`` order.
-COMMANDS = (fem, lumped, calibrate, explore, sweep, report, ear)
+COMMANDS = (fem, lumped, calibrate, explore, sweep, report, ear, rom)
 
 
 def build_parser() -> _common.Parser:
