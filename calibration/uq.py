@@ -1,0 +1,340 @@
+"""Uncertainty and sensitivity: the moduli's uncertainty carried to α, β, α + β and β/α (docs/uq.md).
+
+Each Young's modulus (Pa) has a :class:`Distribution` (:mod:`isj.calibration.uq_inputs`):
+log-uniform over a range (default: the calibrated domain of the lumped model, docs/lumped.md
+§3.5, the thesis's plausible ranges §6.2.3–6.2.5), lognormal with a median and a spread, or
+fixed. :func:`run_uq` then
+
+- draws a Monte Carlo sample (``numpy.random.default_rng(seed)``, independent draws, so the
+  binomial interval on P(β/α > 1) holds; bit for bit the same for the same seed),
+- evaluates it with an *evaluator*, a callable mapping arrays of moduli to (α, β) in rad (default
+  :func:`lumped_evaluator`, the calibrated lumped model; a surrogate plugs in the same way),
+- gives P(β/α > 1) with a Wilson score interval, quantiles and histograms of the outputs, and
+- Sobol' first-order and total indices with bootstrap intervals from SALib (Saltelli's scheme,
+  ``SALib.sample.sobol`` / ``SALib.analyze.sobol``), on the unit cube mapped through each
+  distribution's inverse CDF: uniform in log E for log-uniform inputs.
+
+>>> cfg = UQConfig.default(samples=10_000, sobol_samples=256, bootstrap=50)
+>>> r = run_uq(cfg)
+>>> 0 < r.p_beta_over_alpha_gt_1 < 1
+True
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+
+import numpy as np
+from isj.lumped.model import MODULI
+
+from isj.design import DEFAULT_PRESSURE_PA
+from isj.errors import InvalidParameter
+
+from .uq_inputs import (
+    BOOTSTRAP_RANGE,
+    DEFAULT_BOOTSTRAP,
+    DEFAULT_SAMPLES,
+    DEFAULT_SOBOL_SAMPLES,
+    KINDS,
+    SAMPLES_RANGE,
+    SEED_RANGE,
+    SOBOL_SAMPLES_RANGE,
+    Distribution,
+    UQConfig,
+    default_distributions,
+    load_uq_config,
+    uq_config_from_dict,
+)
+
+__all__ = [
+    "BOOTSTRAP_RANGE",
+    "CONFIDENCE",
+    "DEFAULT_BOOTSTRAP",
+    "DEFAULT_SAMPLES",
+    "DEFAULT_SOBOL_SAMPLES",
+    "KINDS",
+    "OUTPUTS",
+    "SAMPLES_RANGE",
+    "SEED_RANGE",
+    "SOBOL_SAMPLES_RANGE",
+    "UNITS",
+    "Distribution",
+    "Evaluator",
+    "UQConfig",
+    "UQResult",
+    "compare_evaluators",
+    "default_distributions",
+    "evaluate_outputs",
+    "load_uq_config",
+    "lumped_evaluator",
+    "probability_interval",
+    "run_uq",
+    "sample_moduli",
+    "sobol_indices",
+    "summarise",
+    "uq_config_from_dict",
+]
+
+#: Outputs of the Monte Carlo, SI (rad, rad, rad, dimensionless).
+OUTPUTS = ("alpha_rad", "beta_rad", "alpha_plus_beta_rad", "beta_over_alpha")
+UNITS = {"alpha_rad": "rad", "beta_rad": "rad", "alpha_plus_beta_rad": "rad", "beta_over_alpha": "1"}
+#: Two-sided level of every interval.
+CONFIDENCE = 0.95
+#: Quantile probabilities reported for each output.
+QUANTILES = (0.001, 0.01, 0.025, 0.05, 0.1, 0.25, 0.5, 0.75, 0.9, 0.95, 0.975, 0.99, 0.999)
+HISTOGRAM_BINS = 60
+
+#: (α, β) in rad from a mapping modulus name → array of moduli (Pa), all of one length.
+Evaluator = Callable[[Mapping[str, np.ndarray]], tuple[np.ndarray, np.ndarray]]
+
+
+def lumped_evaluator(model=None, pressure_pa: float = DEFAULT_PRESSURE_PA) -> Evaluator:
+    """The calibrated lumped model (:class:`isj.lumped.api.LumpedModel`, default: shipped) at a
+    pressure (Pa) as an :data:`Evaluator`."""
+    from isj.lumped.api import LumpedModel
+
+    model = model or LumpedModel.default()
+
+    def evaluate(moduli):
+        r = model.static(dict(moduli), pressure_pa=pressure_pa)
+        return r.alpha_rad, r.beta_rad
+
+    evaluate.name = "lumped"
+    return evaluate
+
+
+def sample_moduli(config: UQConfig, n: int | None = None, seed: int | None = None) -> dict[str, np.ndarray]:
+    """``n`` independent draws (Pa) per modulus: ``default_rng(seed).random((n, d))``, one column
+    per uncertain modulus in MODULI order, through its inverse CDF; fixed moduli repeated."""
+    n = config.samples if n is None else n
+    u = np.random.default_rng(config.seed if seed is None else seed).random((n, len(config.uncertain)))
+    cols = dict(zip(config.uncertain, u.T, strict=True))
+    return {k: config.distributions[k].ppf(cols.get(k, np.zeros(n))) for k in MODULI}
+
+
+def evaluate_outputs(evaluator: Evaluator, moduli: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """α, β, α + β (rad) and β/α from ``evaluator``; refuses results that are not finite or α ≤ 0."""
+    n = len(next(iter(moduli.values())))
+    a, b = (np.broadcast_to(np.asarray(v, dtype=float), (n,)) for v in evaluator(moduli))
+    bad = ~(np.isfinite(a) & np.isfinite(b) & (a > 0))
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise InvalidParameter(
+            f"evaluator: alpha = {a[i]!r}, beta = {b[i]!r} rad at design {i} (need finite, alpha > 0); "
+            f"{int(bad.sum())} of {n} designs"
+        )
+    return {"alpha_rad": a, "beta_rad": b, "alpha_plus_beta_rad": a + b, "beta_over_alpha": b / a}
+
+
+def probability_interval(k: int, n: int, confidence: float = CONFIDENCE) -> tuple[float, float]:
+    """The Wilson score interval of a binomial proportion k/n at ``confidence`` (two-sided)."""
+    from scipy.stats import binomtest
+
+    ci = binomtest(int(k), int(n)).proportion_ci(confidence_level=confidence, method="wilson")
+    return float(ci.low), float(ci.high)
+
+
+def summarise(outputs: Mapping[str, np.ndarray]) -> tuple[dict, dict]:
+    """(summary, histograms): per output mean, std, min, max and :data:`QUANTILES`; and
+    (bin edges, counts) over [min, max], log-spaced for positive outputs."""
+    summary, hist = {}, {}
+    for k, y in outputs.items():
+        q = np.quantile(y, QUANTILES)
+        summary[k] = {
+            "mean": float(y.mean()),
+            "std": float(y.std(ddof=1)),
+            "min": float(y.min()),
+            "max": float(y.max()),
+            "quantiles": {f"{p:g}": float(v) for p, v in zip(QUANTILES, q, strict=True)},
+        }
+        lo, hi = float(y.min()), float(y.max())
+        if hi <= lo:
+            hi = lo + max(abs(lo), 1e-300) * 1e-9
+        edges = (
+            np.geomspace(lo, hi, HISTOGRAM_BINS + 1) if lo > 0 else np.linspace(lo, hi, HISTOGRAM_BINS + 1)
+        )
+        edges[0], edges[-1] = lo, hi
+        hist[k] = (edges, np.histogram(y, edges)[0])
+    return summary, hist
+
+
+def sobol_indices(
+    config: UQConfig,
+    evaluator: Evaluator,
+    outputs=("alpha_rad", "beta_rad", "beta_over_alpha"),
+    confidence: float = CONFIDENCE,
+) -> dict:
+    """Sobol' first-order and total indices with bootstrap half-widths, by SALib.
+
+    Saltelli's scheme (``SALib.sample.sobol.sample``, scrambled, seeded, no second order) on the
+    unit cube of the uncertain moduli, mapped through each :meth:`Distribution.ppf`;
+    ``SALib.analyze.sobol.analyze`` with ``config.bootstrap`` resamples at ``confidence``.
+
+    Returns
+    -------
+    dict : output → {"S1", "S1_conf", "ST", "ST_conf"} → modulus → value (``_conf``: the half-width
+        of SALib's normal bootstrap interval)
+    """
+    from SALib.analyze import sobol as analyze
+    from SALib.sample import sobol as sample
+
+    names = list(config.uncertain)
+    problem = {"num_vars": len(names), "names": names, "bounds": [[0.0, 1.0]] * len(names)}
+    u = sample.sample(problem, config.sobol_samples, calc_second_order=False, scramble=True, seed=config.seed)
+    n = u.shape[0]
+    cols = dict(zip(names, u.T, strict=True))
+    moduli = {k: config.distributions[k].ppf(cols.get(k, np.zeros(n))) for k in MODULI}
+    y = evaluate_outputs(evaluator, moduli)
+    out = {}
+    for k in outputs:
+        r = analyze.analyze(
+            problem,
+            y[k],
+            calc_second_order=False,
+            num_resamples=config.bootstrap,
+            conf_level=confidence,
+            seed=config.seed,
+        )
+        out[k] = {
+            s: {m: float(v) for m, v in zip(names, r[s], strict=True)}
+            for s in ("S1", "S1_conf", "ST", "ST_conf")
+        }
+    return out
+
+
+@dataclass
+class UQResult:
+    """What :func:`run_uq` found (SI); :meth:`to_dict` is ``isj uq --json``."""
+
+    config: UQConfig
+    p_beta_over_alpha_gt_1: float
+    p_beta_over_alpha_gt_1_ci: tuple[float, float]
+    n_beta_over_alpha_gt_1: int
+    summary: dict
+    histograms: dict
+    sobol: dict
+    evaluator: str
+    pressure_pa: float
+    n_outside_domain: int | None
+    time_s: dict
+    confidence: float = CONFIDENCE
+    outputs: dict = field(default_factory=dict, repr=False)  # the Monte Carlo arrays
+
+    def top_total(self, output: str, k: int = 3) -> list[tuple[str, float]]:
+        """The ``k`` largest total indices of ``output``, (modulus, ST), largest first."""
+        st = self.sobol[output]["ST"]
+        return sorted(st.items(), key=lambda kv: -kv[1])[:k]
+
+    def histogram_dict(self) -> dict:
+        """Output → {"edges": bin edges (the output's unit), "counts": draws per bin}."""
+        return {k: {"edges": e.tolist(), "counts": c.tolist()} for k, (e, c) in self.histograms.items()}
+
+    def to_dict(self) -> dict:
+        """The keys of ``isj uq --json`` (SI; distributions, counts, seed, indices, summary)."""
+        c = self.config
+        return {
+            "p_beta_over_alpha_gt_1": self.p_beta_over_alpha_gt_1,
+            "p_beta_over_alpha_gt_1_ci": list(self.p_beta_over_alpha_gt_1_ci),
+            "ci_method": "wilson",
+            "confidence": self.confidence,
+            "n_beta_over_alpha_gt_1": self.n_beta_over_alpha_gt_1,
+            "samples": c.samples,
+            "seed": c.seed,
+            "sobol_samples": c.sobol_samples,
+            "sobol_evaluations": c.sobol_samples * (len(c.uncertain) + 2),
+            "bootstrap": c.bootstrap,
+            "distributions": {k: c.distributions[k].to_dict() for k in MODULI},
+            "evaluator": self.evaluator,
+            "pressure_pa": self.pressure_pa,
+            "n_outside_domain": self.n_outside_domain,
+            "summary": self.summary,
+            "sobol": self.sobol,
+            "time_s": self.time_s,
+        }
+
+
+def run_uq(
+    config: UQConfig | None = None,
+    evaluator: Evaluator | None = None,
+    *,
+    pressure_pa: float = DEFAULT_PRESSURE_PA,
+    domain=None,
+    confidence: float = CONFIDENCE,
+) -> UQResult:
+    """Monte Carlo, P(β/α > 1) and Sobol' indices of α, β, α + β and β/α.
+
+    Parameters
+    ----------
+    config : distributions and counts (default :meth:`UQConfig.default`)
+    evaluator : moduli (Pa) → (α, β) in rad (default :func:`lumped_evaluator` at ``pressure_pa``)
+    pressure_pa : the default evaluator's pressure (Pa); β/α does not depend on it
+    domain : modulus → (low, high) Pa, for counting draws outside it (default: the shipped
+        calibration's when the evaluator is the default)
+    confidence : of every interval
+    """
+    t0 = time.perf_counter()
+    config = config or UQConfig.default()
+    if evaluator is None:
+        evaluator = lumped_evaluator(pressure_pa=pressure_pa)
+        if domain is None:
+            from isj.lumped.artifact import default_calibration
+
+            domain = default_calibration().domain
+    moduli = sample_moduli(config)
+    y = evaluate_outputs(evaluator, moduli)
+    outside = None
+    if domain is not None:
+        mask = np.zeros(config.samples, dtype=bool)
+        for k, (lo, hi) in domain.items():
+            mask |= (moduli[k] < lo * (1 - 1e-9)) | (moduli[k] > hi * (1 + 1e-9))
+        outside = int(mask.sum())
+    del moduli
+    k = int(np.count_nonzero(y["beta_over_alpha"] > 1))
+    summary, hist = summarise(y)
+    t1 = time.perf_counter()
+    sobol = sobol_indices(config, evaluator, confidence=confidence)
+    t2 = time.perf_counter()
+    return UQResult(
+        config,
+        k / config.samples,
+        probability_interval(k, config.samples, confidence),
+        k,
+        summary,
+        hist,
+        sobol,
+        getattr(evaluator, "name", getattr(evaluator, "__name__", "custom")),
+        float(pressure_pa),
+        outside,
+        {"monte_carlo": t1 - t0, "sobol": t2 - t1, "total": t2 - t0},
+        confidence,
+        y,
+    )
+
+
+def compare_evaluators(config: UQConfig, first: Evaluator, second: Evaluator, where=None) -> dict:
+    """The same Monte Carlo draws through two evaluators (e.g. the lumped model and a surrogate).
+
+    ``where``: optional callable moduli → boolean mask, the draws to compare (e.g. those outside
+    the lumped model's 3 % region); default all. Returns per evaluator P(β/α > 1) with its Wilson
+    interval over those draws, and the largest relative differences of α, β and β/α.
+    """
+    moduli = sample_moduli(config)
+    if where is not None:
+        mask = np.asarray(where(moduli), dtype=bool)
+        moduli = {k: v[mask] for k, v in moduli.items()}
+    n = len(moduli[MODULI[0]])
+    if n == 0:
+        return {"n": 0}
+    ya, yb = evaluate_outputs(first, moduli), evaluate_outputs(second, moduli)
+    out = {"n": n}
+    for tag, y in (("first", ya), ("second", yb)):
+        k = int(np.count_nonzero(y["beta_over_alpha"] > 1))
+        out[tag] = {
+            "p_beta_over_alpha_gt_1": k / n,
+            "p_beta_over_alpha_gt_1_ci": list(probability_interval(k, n)),
+        }
+    for key in ("alpha_rad", "beta_rad", "beta_over_alpha"):
+        out[f"max_rel_diff_{key}"] = float(np.max(np.abs(yb[key] / ya[key] - 1)))
+    return out

@@ -1,0 +1,128 @@
+"""The uncertainty page: histograms of α, β and β/α, Sobol' bars with intervals, P(β/α > 1).
+
+Draws what :func:`isj.calibration.uq.run_uq` found; no computation beyond unit scaling. Two ways
+in:
+
+- :func:`uq_page` ``(fig, uq, histograms)`` with the JSON of ``isj uq`` (``UQResult.to_dict()``)
+  and ``UQResult.histogram_dict()``, for the report's pipeline (a page from
+  :func:`reports.layout.new_page`);
+- :func:`uq_figure` ``(result)``: a new A4 :class:`matplotlib.figure.Figure` (Agg canvas, no
+  pyplot) with that page on it, for ``isj uq --out`` and for Python.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .figures import _log_axes
+from .layout import text_block, wrap
+
+#: Histogram panels: output, axis label, scale.
+_HISTS = (
+    ("alpha_rad", "alpha (urad)", 1e6),
+    ("beta_rad", "beta (urad)", 1e6),
+    ("beta_over_alpha", "beta / alpha", 1.0),
+)
+#: Sobol' panels: output and title.
+_SOBOL = (("alpha_rad", "alpha"), ("beta_rad", "beta"), ("beta_over_alpha", "beta / alpha"))
+
+
+def _short(name: str) -> str:
+    return name.removesuffix("_e_pa")
+
+
+def histogram_panel(ax, edges, counts, label: str, scale: float = 1.0, mark=None):
+    """One output's histogram (density per log-decade for positive edges, log x axis)."""
+    e = np.asarray(edges, dtype=float) * scale
+    c = np.asarray(counts, dtype=float)
+    log = e[0] > 0
+    width = np.diff(np.log10(e)) if log else np.diff(e)
+    artists = ax.stairs(c / c.sum() / width, e, fill=True, color="#9ecae1", edgecolor="#3182bd")
+    if log:
+        _log_axes(ax, "x")
+    if mark is not None:
+        ax.axvline(mark, color="k", ls="--", lw=0.9)
+    ax.set_xlabel(label, fontsize=8)
+    ax.set_ylabel("probability per decade" if log else "probability density", fontsize=7)
+    ax.tick_params(labelsize=7)
+    return artists
+
+
+def sobol_panel(ax, indices: dict, title: str):
+    """First-order (S1) and total (ST) indices per modulus, bars with their bootstrap half-widths."""
+    names = list(indices["ST"])
+    x = np.arange(len(names))
+    w = 0.38
+    artists = []
+    for dx, key, colour in ((-w / 2, "S1", "#3182bd"), (w / 2, "ST", "#e6550d")):
+        v = np.array([indices[key][n] for n in names])
+        err = np.array([indices[f"{key}_conf"][n] for n in names])
+        artists.append(ax.bar(x + dx, v, w, yerr=err, capsize=2, color=colour, label=key))
+    ax.set_xticks(x, [_short(n) for n in names], fontsize=7, rotation=30)
+    ax.set_ylim(0, max(1.0, max(indices["ST"].values()) * 1.1))
+    ax.set_title(title, fontsize=9)
+    ax.tick_params(labelsize=7)
+    ax.legend(fontsize=6, frameon=False)
+    ax.grid(True, axis="y", alpha=0.3)
+    return artists
+
+
+def _distribution_text(d: dict) -> str:
+    if d["distribution"] == "loguniform":
+        return f"log-uniform {d['low_pa']:.3g}..{d['high_pa']:.3g} Pa"
+    if d["distribution"] == "lognormal":
+        return f"lognormal median {d['median_pa']:.3g} Pa, sigma(ln E) {d['sigma_ln']:.3g}"
+    return f"fixed {d['value_pa']:.3g} Pa"
+
+
+def uq_page(fig, uq: dict, histograms: dict):
+    """Draw the uncertainty page on ``fig`` (an A4 figure).
+
+    Parameters
+    ----------
+    fig : matplotlib Figure
+    uq : ``UQResult.to_dict()`` (the JSON of ``isj uq``)
+    histograms : ``UQResult.histogram_dict()``: output → {"edges", "counts"}
+    """
+    p, (lo, hi) = uq["p_beta_over_alpha_gt_1"], uq["p_beta_over_alpha_gt_1_ci"]
+    for i, (key, label, scale) in enumerate(_HISTS):
+        ax = fig.add_axes([0.08 + 0.31 * i, 0.70, 0.25, 0.2])
+        h = histograms[key]
+        histogram_panel(
+            ax, h["edges"], h["counts"], label, scale, mark=1.0 if key == "beta_over_alpha" else None
+        )
+        if key == "beta_over_alpha":
+            ax.set_title(f"P(beta/alpha > 1) = {p:.4f}", fontsize=8)
+    for i, (key, title) in enumerate(_SOBOL):
+        sobol_panel(
+            fig.add_axes([0.08 + 0.31 * i, 0.40, 0.25, 0.2]), uq["sobol"][key], f"Sobol' indices: {title}"
+        )
+    level = 100 * uq["confidence"]
+    lines = [
+        f"P(beta/alpha > 1) = {p:.4f}, {level:g} % {uq['ci_method'].capitalize()} interval "
+        f"[{lo:.4f}, {hi:.4f}] ({uq['n_beta_over_alpha_gt_1']} of {uq['samples']} draws; "
+        f"evaluator: {uq['evaluator']}; seed {uq['seed']}).",
+        f"Sobol' indices: SALib, Saltelli scheme, {uq['sobol_samples']} base samples "
+        f"({uq['sobol_evaluations']} model runs), {uq['bootstrap']} bootstrap resamples; error bars: "
+        f"{level:g} % half-widths.",
+        "",
+        "Distributions:",
+        *(f"  {_short(k):8} {_distribution_text(d)}" for k, d in uq["distributions"].items()),
+    ]
+    if uq.get("n_outside_domain"):
+        lines.append(f"{uq['n_outside_domain']} draws lie outside the calibrated domain (extrapolated).")
+    text_block(fig, 0.07, 0.30, wrap("\n".join(lines), 105), fontsize=7.5)
+
+
+def uq_figure(result, title: str = "Uncertainty of the moduli: alpha, beta and beta/alpha"):
+    """A new A4 Figure (Agg canvas, no pyplot) with :func:`uq_page` for a ``UQResult``."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    from .layout import A4
+
+    fig = Figure(figsize=A4)
+    FigureCanvasAgg(fig)
+    fig.text(0.07, 0.965, title, fontsize=15, weight="bold", va="top")
+    uq_page(fig, result.to_dict(), result.histogram_dict())
+    return fig
