@@ -12,10 +12,10 @@ import sys
 from isj import __version__
 from isj.errors import IsjError, UsageError
 
-from . import _common, calibrate, ear, explore, fem, lumped, report, rom, sweep
+from . import _common, calibrate, ear, explore, fem, lumped, report, rom, sweep, uq
 
 #: Command modules in ``isj --help`` order.
-COMMANDS = (fem, lumped, calibrate, explore, sweep, report, ear, rom)
+COMMANDS = (fem, lumped, calibrate, explore, sweep, report, ear, rom, uq)
 
 
 def build_parser() -> _common.Parser:
