@@ -17,5 +17,13 @@ def thesis_cases(rom: ReducedModel | None = None, pressure_pa: float | None = No
     return rom.cases(DEFAULT_PRESSURE_PA if pressure_pa is None else pressure_pa)
 
 
-__all__ = ["RANGED", "DesignSpace", "ReducedModel", "build_reduced_model", "calibration_domain",
-           "reduced_model", "rom_cache_dir", "thesis_cases"]
+__all__ = [
+    "RANGED",
+    "DesignSpace",
+    "ReducedModel",
+    "build_reduced_model",
+    "calibration_domain",
+    "reduced_model",
+    "rom_cache_dir",
+    "thesis_cases",
+]

@@ -62,7 +62,9 @@ class DesignSpace:
         if not (math.isfinite(self.incus_e_pa) and self.incus_e_pa > 0):
             raise InvalidParameter(f"incus_e_pa = {self.incus_e_pa!r} Pa: must be a finite number > 0")
         check_poisson(self.nu, "nu")
-        object.__setattr__(self, "bounds", {k: (float(self.bounds[k][0]), float(self.bounds[k][1])) for k in RANGED})
+        object.__setattr__(
+            self, "bounds", {k: (float(self.bounds[k][0]), float(self.bounds[k][1])) for k in RANGED}
+        )
 
     # ---- coordinates -------------------------------------------------------------------
 
@@ -136,7 +138,9 @@ class DesignSpace:
 
     def materials(self, e) -> Materials:
         """The :class:`Materials` of one design ``e`` (5,), Pa."""
-        return Materials(**dict(zip(RANGED, map(float, e), strict=True)), incus_e_pa=self.incus_e_pa, nu=self.nu)
+        return Materials(
+            **dict(zip(RANGED, map(float, e), strict=True)), incus_e_pa=self.incus_e_pa, nu=self.nu
+        )
 
     def designs_from(self, materials=None, **moduli) -> np.ndarray:
         """(n, 5) moduli from a Materials, a mapping of floats or arrays, or keywords.
@@ -167,5 +171,8 @@ class DesignSpace:
         return self.check(np.stack([c.ravel() for c in cols], axis=1))
 
     def to_dict(self) -> dict:
-        return {"bounds": {k: list(v) for k, v in self.bounds.items()}, "incus_e_pa": self.incus_e_pa,
-                "nu": self.nu}  # fmt: skip
+        return {
+            "bounds": {k: list(v) for k, v in self.bounds.items()},
+            "incus_e_pa": self.incus_e_pa,
+            "nu": self.nu,
+        }

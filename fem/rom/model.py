@@ -72,12 +72,17 @@ class ReducedModel:
     @property
     def n_basis(self) -> dict[str, int]:
         """Basis sizes of the primal space and the duals of α and β."""
-        return {"primal": self.arrays["u_g"].size, "dual_alpha": self.arrays["a_g"].size,
-                "dual_beta": self.arrays["b_g"].size}  # fmt: skip
+        return {
+            "primal": self.arrays["u_g"].size,
+            "dual_alpha": self.arrays["a_g"].size,
+            "dual_beta": self.arrays["b_g"].size,
+        }
 
     def __repr__(self) -> str:
-        return (f"ReducedModel(P{self.meta.get('order')}, {self.meta.get('n_dofs')} dofs, "
-                f"bases {self.n_basis}, max relative bound {self.meta.get('validate_max_rel_bound', 0):.2e})")  # fmt: skip
+        return (
+            f"ReducedModel(P{self.meta.get('order')}, {self.meta.get('n_dofs')} dofs, "
+            f"bases {self.n_basis}, max relative bound {self.meta.get('validate_max_rel_bound', 0):.2e})"
+        )
 
     # ---- online ------------------------------------------------------------------------
 
@@ -120,11 +125,16 @@ class ReducedModel:
         b, db = ev["beta"] * p, ev["beta_bound"] * abs(p)
         der = derived_bounds(a, da, b, db)
         return {
-            "alpha_rad": a, "alpha_bound_rad": da, "beta_rad": b, "beta_bound_rad": db,
-            "alpha_plus_beta_rad": der["sum"], "alpha_plus_beta_bound_rad": der["sum_bound"],
-            "beta_over_alpha": der["ratio"], "beta_over_alpha_bound": der["ratio_bound"],
+            "alpha_rad": a,
+            "alpha_bound_rad": da,
+            "beta_rad": b,
+            "beta_bound_rad": db,
+            "alpha_plus_beta_rad": der["sum"],
+            "alpha_plus_beta_bound_rad": der["sum_bound"],
+            "beta_over_alpha": der["ratio"],
+            "beta_over_alpha_bound": der["ratio_bound"],
             "coercivity_lb": ev["alpha_lb"],
-        }  # fmt: skip
+        }
 
     def solve(self, materials=None, pressure_pa: float = DEFAULT_PRESSURE_PA, **moduli) -> dict:
         """One design: the keys of :meth:`evaluate` as floats, plus the moduli and the model's sizes."""
@@ -132,11 +142,16 @@ class ReducedModel:
         if E.shape[0] != 1:
             raise InvalidParameter(f"designs: solve takes one design, not {E.shape[0]}; use evaluate")
         out = {k: float(v[0]) for k, v in self.evaluate(E, pressure_pa).items()}
-        return out | {
-            "pressure_pa": float(pressure_pa),
-            "moduli": dict(zip(RANGED, map(float, E[0]), strict=True)) | {"incus_e_pa": self.space.incus_e_pa},
-            "nu": self.space.nu,
-        } | self.sizes()
+        return (
+            out
+            | {
+                "pressure_pa": float(pressure_pa),
+                "moduli": dict(zip(RANGED, map(float, E[0]), strict=True))
+                | {"incus_e_pa": self.space.incus_e_pa},
+                "nu": self.space.nu,
+            }
+            | self.sizes()
+        )
 
     def sizes(self) -> dict:
         """The FE model's and the surrogate's sizes, for JSON output."""
@@ -157,7 +172,8 @@ class ReducedModel:
         E = np.array([[m.youngs(k.removesuffix("_e_pa")) for k in RANGED] for m in rows])
         ev = self.evaluate(E, pressure_pa)
         return [
-            {"case": c.name} | {k: float(E[i, j]) for j, k in enumerate(RANGED)}
+            {"case": c.name}
+            | {k: float(E[i, j]) for j, k in enumerate(RANGED)}
             | {k: float(v[i]) for k, v in ev.items()}
             for i, c in enumerate(THESIS_CASES)
         ]
@@ -190,16 +206,30 @@ def _code_digest() -> str:
 
 def cache_key(mesh_hash: str, order: int, geometry: Geometry, space: DesignSpace, settings: dict) -> str:
     """sha256 (hex) of everything a surrogate depends on."""
-    payload = {"mesh": mesh_hash, "order": order, "geometry": dataclasses.asdict(geometry),
-               "space": space.to_dict(), "settings": settings, "code": _code_digest(),
-               "format": ROM_FORMAT_VERSION}  # fmt: skip
+    payload = {
+        "mesh": mesh_hash,
+        "order": order,
+        "geometry": dataclasses.asdict(geometry),
+        "space": space.to_dict(),
+        "settings": settings,
+        "code": _code_digest(),
+        "format": ROM_FORMAT_VERSION,
+    }
     return hashlib.sha256(canonical_json(payload).encode()).hexdigest()
 
 
-def build_reduced_model(model, space: DesignSpace | None = None, *, tol: float = DEFAULT_TOL,
-                        n_train: int = N_TRAIN, n_validate: int = N_VALIDATE, seed: int = 0,
-                        max_snapshots: int = MAX_SNAPSHOTS, solver: str = "auto",
-                        progress=None) -> ReducedModel:  # fmt: skip
+def build_reduced_model(
+    model,
+    space: DesignSpace | None = None,
+    *,
+    tol: float = DEFAULT_TOL,
+    n_train: int = N_TRAIN,
+    n_validate: int = N_VALIDATE,
+    seed: int = 0,
+    max_snapshots: int = MAX_SNAPSHOTS,
+    solver: str = "auto",
+    progress=None,
+) -> ReducedModel:
     """Run the greedy on an assembled :class:`isj.fem.model.PedicleJointModel` (no cache).
 
     Training set: the 32 corners and ``n_train`` scrambled Sobol designs (seed ``seed``);
@@ -216,18 +246,28 @@ def build_reduced_model(model, space: DesignSpace | None = None, *, tol: float =
     greedy = Greedy(model, space, solver)
     corners = space.corners()
     train = np.concatenate([corners, space.sample(n_train, seed)])
-    validate = np.concatenate([corners, space.from_unit(_edge_midpoints()), space.sample(n_validate, seed + 1)])
+    validate = np.concatenate(
+        [corners, space.from_unit(_edge_midpoints()), space.sample(n_validate, seed + 1)]
+    )
     hist = run_greedy(greedy, train, validate, tol, max_steps=max_snapshots, progress=progress)
     arrays = greedy.arrays(orthogonality=True)
     meta = {
-        "mesh_hash": model.mesh.content_hash(), "order": model.order, "n_dofs": model.n_dofs,
-        "n_tets": model.n_tets, "geometry": dataclasses.asdict(model.geometry),
-        "n_snapshots": len(greedy.snapshots), "snapshots_pa": np.array(greedy.snapshots).tolist(),
-        "tol": tol, "converged": hist["converged"], "validate_max_rel_bound": hist["validate_max_rel_bound"],
-        "n_validate": int(validate.shape[0]), "history": hist["history"],
-        "build_time_s": time.perf_counter() - t0, "timings_s": dict(greedy.timings_s),
+        "mesh_hash": model.mesh.content_hash(),
+        "order": model.order,
+        "n_dofs": model.n_dofs,
+        "n_tets": model.n_tets,
+        "geometry": dataclasses.asdict(model.geometry),
+        "n_snapshots": len(greedy.snapshots),
+        "snapshots_pa": np.array(greedy.snapshots).tolist(),
+        "tol": tol,
+        "converged": hist["converged"],
+        "validate_max_rel_bound": hist["validate_max_rel_bound"],
+        "n_validate": int(validate.shape[0]),
+        "history": hist["history"],
+        "build_time_s": time.perf_counter() - t0,
+        "timings_s": dict(greedy.timings_s),
         "representer_rel_error": greedy.xsolve.rel,
-    }  # fmt: skip
+    }
     return ReducedModel(arrays, space, meta)
 
 
@@ -244,9 +284,17 @@ def _edge_midpoints() -> np.ndarray:
     return np.array(out)
 
 
-def reduced_model(geometry: Geometry | None = None, order: int = 2, resolution: float = 1.0,
-                  space: DesignSpace | None = None, *, tol: float = DEFAULT_TOL, cache: bool = True,
-                  progress=None, **settings) -> ReducedModel:  # fmt: skip
+def reduced_model(
+    geometry: Geometry | None = None,
+    order: int = 2,
+    resolution: float = 1.0,
+    space: DesignSpace | None = None,
+    *,
+    tol: float = DEFAULT_TOL,
+    cache: bool = True,
+    progress=None,
+    **settings,
+) -> ReducedModel:
     """The surrogate for a mesh: from the cache if there, else built (minutes) and stored.
 
     ``settings`` go to :func:`build_reduced_model` (``n_train``, ``n_validate``, ``seed``,

@@ -31,7 +31,9 @@ from .online import DUALS, SPACES, derived_bounds, evaluate_unit
 DROP_TOL = 1e-11
 
 
-def affine_parts(model, nu: float) -> tuple[sp.csr_matrix, np.ndarray, list[sp.csr_matrix], np.ndarray, np.ndarray]:
+def affine_parts(
+    model, nu: float
+) -> tuple[sp.csr_matrix, np.ndarray, list[sp.csr_matrix], np.ndarray, np.ndarray]:
     """The affine decomposition of the free-free problem for Poisson's ratio ``nu``.
 
     Returns
@@ -251,8 +253,9 @@ class Greedy:
 
     def _stiffness(self, theta: np.ndarray) -> sp.csr_matrix:
         """K(θ) on the fixed pattern: one vector sum (every A_r is stored on that pattern)."""
-        return sp.csr_matrix((theta @ self.data, self.pattern.indices, self.pattern.indptr),
-                             shape=self.pattern.shape)  # fmt: skip
+        return sp.csr_matrix(
+            (theta @ self.data, self.pattern.indices, self.pattern.indptr), shape=self.pattern.shape
+        )
 
     def add_snapshot(self, e: np.ndarray) -> None:
         """FE solves at design ``e`` (5,) for the three loads; extend every space."""
@@ -317,8 +320,13 @@ class Greedy:
             if orthogonality:
                 Q = sp_.rep.Q.matrix
                 scale = float(np.sqrt(1 + np.linalg.norm(Q.T @ (self.X @ Q) - np.eye(Q.shape[1]))))
-            out |= {f"{s}_A": sp_.A, f"{s}_g": sp_.g, f"{s}_R": R, f"{s}_eta": eta,
-                    f"{s}_scale": np.array(scale)}  # fmt: skip
+            out |= {
+                f"{s}_A": sp_.A,
+                f"{s}_g": sp_.g,
+                f"{s}_R": R,
+                f"{s}_eta": eta,
+                f"{s}_scale": np.array(scale),
+            }
         V = self.spaces["u"].V.matrix
         out["l_u"] = self.ell @ V
         for d in DUALS:
@@ -366,7 +374,9 @@ def run_greedy(
         rel, _ = relative_bounds(arr, greedy.space.theta(train))
         worst = int(np.argmax(rel))
         top = float(rel[worst])  # infinite while α's interval still holds 0: JSON null
-        history.append({"n_snapshots": len(greedy.snapshots), "train_max_rel_bound": top if np.isfinite(top) else None})
+        history.append(
+            {"n_snapshots": len(greedy.snapshots), "train_max_rel_bound": top if np.isfinite(top) else None}
+        )
         if progress:
             progress(history[-1])
         if rel[worst] > safety * tol and len(greedy.snapshots) < max_steps:
@@ -376,6 +386,9 @@ def run_greedy(
         over = np.flatnonzero(vrel > tol)
         history[-1]["validate_max_rel_bound"] = float(vrel.max())
         if over.size == 0 or len(greedy.snapshots) >= max_steps:
-            return {"history": history, "validate_max_rel_bound": float(vrel.max()),
-                    "converged": bool(over.size == 0)}  # fmt: skip
+            return {
+                "history": history,
+                "validate_max_rel_bound": float(vrel.max()),
+                "converged": bool(over.size == 0),
+            }
         train = np.concatenate([train, validate[over[np.argsort(-vrel[over])][:8]]])

@@ -97,10 +97,11 @@ def evaluate_unit(arr: dict, theta: np.ndarray) -> dict[str, np.ndarray]:
 def _evaluate_block(arr: dict, theta: np.ndarray) -> dict[str, np.ndarray]:
     x = {s: _solve(arr, s, theta) for s in SPACES}
     res = {
-        s: residual_norm(residual_coefficients(theta, x[s]), arr[f"{s}_R"], arr[f"{s}_eta"],
-                         float(arr[f"{s}_scale"]))
+        s: residual_norm(
+            residual_coefficients(theta, x[s]), arr[f"{s}_R"], arr[f"{s}_eta"], float(arr[f"{s}_scale"])
+        )
         for s in SPACES
-    }  # fmt: skip
+    }
     lb = coercivity_lb(theta, arr["theta_bar"])
     out = {"alpha_lb": lb, **{f"res_{s}": res[s] for s in SPACES}}
     xu = x["u"]
@@ -111,9 +112,10 @@ def _evaluate_block(arr: dict, theta: np.ndarray) -> dict[str, np.ndarray]:
         n_r, kd, ku = C.shape
         s = xu @ arr["l_u"][i]
         if kd and ku:
-            # r_pr(ψ_N) = f(W y) − Σ_r θ_r yᵀ C_r x: the dual correction of the output
+            # s_N = ℓ(u_N) − r_pr(ψ_N) with r_pr(ψ_N) = f(W y) − Σ_r θ_r yᵀ C_r x; the dual solves
+            # K ψ = −ℓ, so s − s_N = −a(e, e_du): the product of the two errors
             Cx = (xu @ C.transpose(2, 0, 1).reshape(ku, n_r * kd)).reshape(-1, n_r, kd)
-            s = s + xd @ arr[f"{d}_fw"] - np.einsum("br,brk,bk->b", theta, Cx, xd)
+            s = s - xd @ arr[f"{d}_fw"] + np.einsum("br,brk,bk->b", theta, Cx, xd)
         out[name] = s
         out[f"{name}_bound"] = res["u"] * res[d] / lb + floor * np.abs(s)
     return out

@@ -1,0 +1,254 @@
+"""The certified reduced-basis surrogate (isj.fem.rom): bound ≥ true error against FE on the same mesh.
+
+One surrogate of a coarse P1 model (resolution 0.35, about 2.6k dofs) is built once for the module,
+through the cache, and checked against FE on that mesh at all 32 corners and at random designs.
+The effectivities (bound ÷ error) are printed (``pytest -s``) and must be ≥ 1 everywhere.
+"""
+
+import json
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+import scipy.sparse.linalg as spla
+
+from isj.cachefile import read_npz_entry
+from isj.errors import CorruptCacheEntry, InvalidParameter
+
+ORDER, RESOLUTION = 1, 0.35
+
+
+@pytest.fixture(scope="module")
+def rom_cache(tmp_path_factory):
+    mp = pytest.MonkeyPatch()
+    path = tmp_path_factory.mktemp("fe-cache")
+    mp.setenv("ISJ_FE_CACHE_DIR", str(path))
+    yield path
+    mp.undo()
+
+
+@pytest.fixture(scope="module")
+def fe():
+    from isj.fem.model import PedicleJointModel
+
+    return PedicleJointModel(order=ORDER, resolution=RESOLUTION)
+
+
+@pytest.fixture(scope="module")
+def rom(rom_cache, fe):
+    from isj.fem.rom import reduced_model
+
+    return reduced_model(order=ORDER, resolution=RESOLUTION)
+
+
+def _fe_outputs(fe, rom, E, pressure=1.0):
+    rows = []
+    for e in E:
+        r = fe.solve(rom.space.materials(e), pressure)
+        rows.append([r.alpha_rad, r.beta_rad, r.sum_rad, r.ratio])
+    return np.array(rows)
+
+
+def _check_bounds(fe, rom, E, label):
+    truth = _fe_outputs(fe, rom, E)
+    ev = rom.evaluate(E, 1.0)
+    keys = [
+        ("alpha_rad", "alpha_bound_rad"),
+        ("beta_rad", "beta_bound_rad"),
+        ("alpha_plus_beta_rad", "alpha_plus_beta_bound_rad"),
+        ("beta_over_alpha", "beta_over_alpha_bound"),
+    ]
+    for j, (k, kb) in enumerate(keys):
+        err = np.abs(truth[:, j] - ev[k])
+        bound = ev[kb]
+        assert np.all(err <= bound), f"{label} {k}: error above bound at {np.flatnonzero(err > bound)}"
+        eff = bound / np.maximum(err, 1e-300)
+        rel = bound / np.abs(truth[:, j])
+        print(
+            f"{label} {k}: relative bound max {rel.max():.2e} median {np.median(rel):.2e}; "
+            f"effectivity min {eff.min():.3g} max {eff.max():.3g}"
+        )
+        assert rel.max() <= 2e-3  # the target is 1e-3 for α, β, β/α; α + β sums two bounds
+
+
+def test_bound_holds_at_all_corners(fe, rom):
+    _check_bounds(fe, rom, rom.space.corners(), "corners")
+
+
+def test_bound_holds_at_random_designs(fe, rom):
+    rng = np.random.default_rng(2024)
+    _check_bounds(fe, rom, rom.space.from_unit(rng.random((12, 5))), "random")
+
+
+def test_bound_target_met_on_a_fresh_dense_sample(rom):
+    E = rom.space.sample(16384, seed=99)
+    ev = rom.evaluate(E, 1.0)
+    for k, kb in (
+        ("alpha_rad", "alpha_bound_rad"),
+        ("beta_rad", "beta_bound_rad"),
+        ("beta_over_alpha", "beta_over_alpha_bound"),
+    ):
+        rel = ev[kb] / np.abs(ev[k])
+        assert rel.max() <= rom.meta["tol"], k
+    assert rom.meta["converged"] and rom.meta["validate_max_rel_bound"] <= rom.meta["tol"]
+
+
+def test_min_theta_is_the_coercivity_constant(fe, rom):
+    """min-θ is rigorous (every A_r is PSD) and, here, not loose: it equals λ_min(K(μ), K(μ̄))."""
+    from isj.fem.rom.offline import affine_parts
+
+    pattern, data, _, _, _ = affine_parts(fe, rom.space.nu)
+    theta_bar = rom.arrays["theta_bar"]
+
+    def K(t):
+        return type(pattern)((t @ data, pattern.indices, pattern.indptr), shape=pattern.shape).tocsc()
+
+    X = K(theta_bar)
+    for e in rom.space.corners()[[0, 7, 21, 31]]:
+        t = rom.space.theta(e[None])[0]
+        lu = spla.splu(K(t))
+        inv = spla.LinearOperator(X.shape, matvec=lu.solve)
+        lam_max = spla.eigsh(X, k=1, M=K(t), Minv=inv, which="LA", tol=1e-10)[0][0]
+        true_lb = 1 / lam_max
+        lb = rom.evaluate(e[None], 1.0)["coercivity_lb"][0]
+        assert lb <= true_lb * (1 + 1e-6)
+        assert lb >= 0.9 * true_lb
+
+
+def test_residual_norm_is_accurate_at_small_residuals(fe, rom):
+    """‖R c‖ (representers orthonormalised) tracks the true dual norm where cᵀGc loses every digit."""
+    from isj.fem.rom.domain import DesignSpace
+    from isj.fem.rom.offline import Greedy
+    from isj.fem.rom.online import _solve, residual_coefficients, residual_norm
+
+    space = DesignSpace()
+    g = Greedy(fe, space)
+    g.add_snapshot(space.center())
+    corner = space.corners()[9]
+    g.add_snapshot(corner)
+    arr = g.arrays(orthogonality=True)
+    lu = spla.splu(g.X.tocsc())
+    for e, small in ((corner, True), (space.from_unit(np.full((1, 5), 0.3))[0], False)):
+        theta = space.theta(e[None])
+        x = _solve(arr, "u", theta)
+        c = residual_coefficients(theta, x)
+        ours = residual_norm(c, arr["u_R"], arr["u_eta"], float(arr["u_scale"]))[0]
+        r = g.f - g._stiffness(theta[0]) @ (g.spaces["u"].V.matrix @ x[0])
+        true = np.sqrt(r @ lu.solve(r))
+        scale = arr["u_R"][0, 0]  # ‖f‖_X'
+        assert ours >= true * (1 - 1e-6)
+        R = arr["u_R"]
+        gram = float(c[0] @ (R.T @ R) @ c[0])  # the textbook expansion cᵀ G c
+        if small:
+            assert true < 1e-8 * scale  # a snapshot: the residual is round-off
+            assert ours < 1e-7 * scale
+            assert abs(np.sqrt(abs(gram)) - true) > 10 * abs(ours - true)  # Gram: digits lost
+        else:
+            assert abs(ours - true) <= 1e-6 * true
+
+
+def test_outputs_scale_with_pressure(rom):
+    a = rom.evaluate(gap_e_pa=2e7, pressure_pa=1.0)
+    b = rom.evaluate(gap_e_pa=2e7, pressure_pa=-30.0)
+    assert b["alpha_rad"][0] == pytest.approx(-30 * a["alpha_rad"][0], rel=1e-12)
+    assert b["beta_bound_rad"][0] == pytest.approx(30 * a["beta_bound_rad"][0], rel=1e-12)
+    assert b["beta_over_alpha"][0] == pytest.approx(a["beta_over_alpha"][0], rel=1e-12)
+
+
+def test_designs_outside_the_domain_are_refused(rom):
+    with pytest.raises(InvalidParameter, match=r"gap_e_pa = 100000 Pa: outside .* \[1e\+06, 5e\+07\] Pa"):
+        rom.evaluate(gap_e_pa=1e5)
+    with pytest.raises(InvalidParameter, match="incus_e_pa"):
+        rom.evaluate(incus_e_pa=1e9)
+    corners = rom.space.corners()
+    assert np.all(np.isfinite(rom.evaluate(corners)["alpha_rad"]))  # the faces themselves are inside
+
+
+def test_thesis_cases_fast_with_bounds(fe, rom):
+    t0 = time.perf_counter()
+    rows = rom.cases()
+    elapsed = time.perf_counter() - t0
+    assert [r["case"] for r in rows] == ["base", "j5", "c20", "c100", "j5c20", "p12", "p3"]
+    assert elapsed < 0.1
+    base = fe.solve(
+        rom.space.materials(
+            [rows[0][k] for k in ("pedicle_e_pa", "gap_e_pa", "capsule_e_pa", "plate_e_pa", "stapes_e_pa")]
+        )
+    )
+    assert abs(base.alpha_rad - rows[0]["alpha_rad"]) <= rows[0]["alpha_bound_rad"]
+    assert abs(base.beta_rad - rows[0]["beta_rad"]) <= rows[0]["beta_bound_rad"]
+
+
+def test_cache_round_trip_and_damaged_entry(rom_cache, rom):
+    from isj.fem.rom import reduced_model, rom_cache_dir
+
+    t0 = time.perf_counter()
+    again = reduced_model(order=ORDER, resolution=RESOLUTION)
+    assert time.perf_counter() - t0 < 5  # loaded, not rebuilt
+    E = rom.space.sample(64, seed=3)
+    assert np.array_equal(again.evaluate(E)["beta_rad"], rom.evaluate(E)["beta_rad"])
+    # a small surrogate of its own, damaged on disk: reported, deleted, rebuilt to the same numbers
+    small = {"n_train": 16, "n_validate": 16, "max_snapshots": 4}
+    before = set(rom_cache_dir().glob("rom-*.npz"))
+    first = reduced_model(order=ORDER, resolution=RESOLUTION, **small)
+    (entry,) = set(rom_cache_dir().glob("rom-*.npz")) - before
+    read_npz_entry(entry)  # sound before the damage
+    data = bytearray(entry.read_bytes())
+    data[len(data) // 2] ^= 0xFF
+    entry.write_bytes(bytes(data))
+    with pytest.warns(CorruptCacheEntry):
+        second = reduced_model(order=ORDER, resolution=RESOLUTION, **small)
+    assert np.array_equal(second.evaluate(E)["alpha_rad"], first.evaluate(E)["alpha_rad"])
+
+
+def _isj(*args, env_dir):
+    import os
+
+    env = dict(os.environ, ISJ_FE_CACHE_DIR=str(env_dir))
+    return subprocess.run([sys.executable, "-m", "isj", *args], capture_output=True, text=True, env=env)
+
+
+def test_cli_solve_json_keys(rom_cache, rom):
+    out = _isj(
+        "rom",
+        "solve",
+        "--order",
+        str(ORDER),
+        "--resolution",
+        str(RESOLUTION),
+        "--gap-e",
+        "2e7",
+        "--json",
+        env_dir=rom_cache,
+    )
+    assert out.returncode == 0, out.stderr
+    d = json.loads(out.stdout)
+    for k in (
+        "alpha_rad",
+        "beta_rad",
+        "alpha_bound_rad",
+        "beta_bound_rad",
+        "alpha_plus_beta_rad",
+        "beta_over_alpha",
+        "n_dofs",
+        "mesh_hash",
+        "pressure_pa",
+    ):
+        assert k in d
+    ref = rom.solve(gap_e_pa=2e7)
+    assert d["alpha_rad"] == ref["alpha_rad"] and d["n_dofs"] == ref["n_dofs"]
+    cases = _isj(
+        "rom", "cases", "--order", str(ORDER), "--resolution", str(RESOLUTION), "--json", env_dir=rom_cache
+    )
+    assert cases.returncode == 0 and len(json.loads(cases.stdout)) == 7
+
+
+def test_cli_refuses_outside_domain_in_one_line(tmp_path):
+    out = _isj("rom", "solve", "--capsule-e", "5e8", "--json", env_dir=tmp_path / "cache")
+    assert out.returncode == 2
+    assert out.stdout == ""
+    lines = out.stderr.strip().splitlines()
+    assert len(lines) == 1 and "--capsule-e" in lines[0] and "[1e+07, 3e+08] Pa" in lines[0]
+    assert not (tmp_path / "cache").exists()
