@@ -175,7 +175,7 @@ def sobol_indices(
     Returns
     -------
     dict : output → {"S1", "S1_conf", "ST", "ST_conf"} → modulus → value (``_conf``: the half-width
-        of SALib's normal bootstrap interval)
+        of SALib's normal bootstrap interval); all 0 for an output that does not vary
     """
     from SALib.analyze import sobol as analyze
     from SALib.sample import sobol as sample
@@ -189,6 +189,9 @@ def sobol_indices(
     y = evaluate_outputs(evaluator, moduli)
     out = {}
     for k in outputs:
+        if np.ptp(y[k]) == 0:  # a constant output depends on no modulus: every index 0
+            out[k] = {s: dict.fromkeys(names, 0.0) for s in ("S1", "S1_conf", "ST", "ST_conf")}
+            continue
         r = analyze.analyze(
             problem,
             y[k],

@@ -40,11 +40,13 @@ MAX_SIGMA_LN = 3.0
 _Z999 = 3.090232306167813
 
 
-def _in_range(where: str, value, lo: float, hi: float, unit: str = "") -> float:
-    """``value`` as a finite float in [lo, hi], else a ConfigError naming ``where`` and the range."""
+def _in_range(where: str, value, lo: float, hi: float, unit: str = "", lo_open: bool = False) -> float:
+    """``value`` as a finite float in [lo, hi] (or (lo, hi]), else a ConfigError naming ``where`` and the
+    range."""
     ok = isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
-    if not ok or not lo <= value <= hi:
-        raise ConfigError(f"{where} = {value!r}: must be a number in [{lo:g}, {hi:g}]{unit}")
+    if not ok or not (lo < value if lo_open else lo <= value) or not value <= hi:
+        rng = f"{'(' if lo_open else '['}{lo:.6g}, {hi:.6g}]"
+        raise ConfigError(f"{where} = {value!r}: must be a number in {rng}{unit}")
     return float(value)
 
 
@@ -73,10 +75,10 @@ class Distribution:
             raise ConfigError(f"{w}.distribution = {self.kind!r}: must be one of {', '.join(KINDS)}")
         if self.kind == "loguniform":
             a = _in_range(f"{w}.low_pa", self.low_pa, lo, hi, " Pa")
-            _in_range(f"{w}.high_pa", self.high_pa, a * (1 + 1e-12), hi, " Pa (above low_pa)")
+            _in_range(f"{w}.high_pa", self.high_pa, a, hi, " Pa (above low_pa)", lo_open=True)
         elif self.kind == "lognormal":
             m = _in_range(f"{w}.median_pa", self.median_pa, lo, hi, " Pa")
-            s = _in_range(f"{w}.sigma_ln", self.sigma_ln, 1e-6, MAX_SIGMA_LN)
+            s = _in_range(f"{w}.sigma_ln", self.sigma_ln, 0.0, MAX_SIGMA_LN, lo_open=True)
             if not (lo <= m * math.exp(-_Z999 * s) and m * math.exp(_Z999 * s) <= hi):
                 raise ConfigError(
                     f"{w}.sigma_ln = {s:g}: its 0.1-99.9 % range {m * math.exp(-_Z999 * s):.3g}.."
@@ -97,7 +99,7 @@ class Distribution:
         if (sigma_ln is None) == (factor is None):
             raise ConfigError(f"{w}: a lognormal needs exactly one of sigma_ln (of ln E) or factor (> 1)")
         if factor is not None:
-            f = _in_range(f"{w}.factor", factor, 1 + 1e-6, math.exp(MAX_SIGMA_LN))
+            f = _in_range(f"{w}.factor", factor, 1.0, math.exp(MAX_SIGMA_LN), lo_open=True)
             sigma_ln = math.log(f)
         return cls("lognormal", median_pa=median_pa, sigma_ln=sigma_ln, name=name)
 

@@ -159,7 +159,7 @@ def test_entry_points_are_one_main():
     from isj._cli import _main
 
     assert [m.__name__.rsplit(".", 1)[-1] for m in _main.COMMANDS] == [
-        "fem", "lumped", "calibrate", "explore", "sweep", "report", "ear"
+        "fem", "lumped", "calibrate", "explore", "sweep", "report", "ear", "rom", "uq"
     ]  # fmt: skip
 
 

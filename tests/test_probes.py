@@ -181,6 +181,11 @@ PROBES = [
         "--scheduler",
     ),
     ("lumped-mesh-options-gone", ["lumped", "solve", "--resolution", "2"], 2, "--resolution"),
+    ("uq-binary-config", ["uq", "--config", "{tmp}/binary.toml", "--out", "u"], 2, "--config"),
+    ("uq-unwritable-out", ["uq", "--out", "/proc/isj/u"], 2, "--out"),
+    ("uq-out-holds-other-files", ["uq", "--out", "{tmp}"], 2, "--out"),
+    ("uq-huge-samples", ["uq", "--samples", "10000000000"], 2, "--samples"),
+    ("uq-sobol-not-power-of-2", ["uq", "--sobol-samples", "1000", "--out", "u"], 2, "--sobol-samples"),
 ]
 
 

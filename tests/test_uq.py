@@ -1,0 +1,300 @@
+"""``isj uq`` and isj.calibration.uq: Sobol' indices against exact values, reproducibility,
+P(β/α > 1) and its interval against known probabilities, the JSON, one-line refusals."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+from isj.calibration.uq import (
+    Distribution,
+    UQConfig,
+    compare_evaluators,
+    default_distributions,
+    lumped_evaluator,
+    probability_interval,
+    run_uq,
+    sample_moduli,
+    sobol_indices,
+    uq_config_from_dict,
+)
+from isj.lumped.model import MODULI
+
+from isj.cli import main
+from isj.errors import ConfigError
+
+UNCERTAIN = MODULI[:5]  # pedicle, gap, capsule, plate, stapes (the incus is fixed by default)
+#: Small counts: fast, still within the tolerances below.
+SMALL = {"samples": 2_000, "sobol_samples": 64, "bootstrap": 10}
+
+
+def _widths(cfg: UQConfig) -> dict[str, float]:
+    """ln(high / low) of each log-uniform modulus: ln E is uniform with that width."""
+    return {k: math.log(d.high_pa / d.low_pa) for k, d in cfg.distributions.items() if d.kind == "loguniform"}
+
+
+def _unit(cfg: UQConfig, moduli, k: str) -> np.ndarray:
+    """The uniform variable in [0, 1] behind a log-uniform modulus."""
+    d = cfg.distributions[k]
+    return np.log(moduli[k] / d.low_pa) / math.log(d.high_pa / d.low_pa)
+
+
+def test_additive_model_indices_are_exact():
+    """f = c + Σ a_i ln E_i with ln E_i uniform (log-uniform E_i) or normal (lognormal E_i):
+    S1_i = ST_i = a_i² var(ln E_i) / Σ a_j² var(ln E_j), for α and for β (other coefficients)."""
+    dists = default_distributions()
+    dists["capsule_e_pa"] = Distribution.lognormal(100e6, sigma_ln=0.5, name="capsule_e_pa")
+    cfg = UQConfig(dists, samples=1_000, sobol_samples=2**12, bootstrap=50, seed=3)
+    var = {k: w**2 / 12 for k, w in _widths(cfg).items()} | {"capsule_e_pa": 0.25}
+    a = dict(zip(UNCERTAIN, (1.0, 2.0, 0.5, 0.0, 1.5), strict=True))
+    b = dict(zip(UNCERTAIN, (0.3, 0.0, 1.0, 2.0, 0.7), strict=True))
+
+    def additive(moduli):
+        la = sum(a[k] * np.log(moduli[k]) for k in UNCERTAIN)
+        lb = sum(b[k] * np.log(moduli[k]) for k in UNCERTAIN)
+        return 200.0 + la, 300.0 + lb  # positive α: the constant does not change any index
+
+    got = sobol_indices(cfg, additive, outputs=("alpha_rad", "beta_rad"))
+    for out, coef in (("alpha_rad", a), ("beta_rad", b)):
+        total = sum(coef[k] ** 2 * var[k] for k in UNCERTAIN)
+        for k in UNCERTAIN:
+            exact = coef[k] ** 2 * var[k] / total
+            assert got[out]["S1"][k] == pytest.approx(exact, abs=0.02), (out, k)
+            assert got[out]["ST"][k] == pytest.approx(exact, abs=0.02), (out, k)
+        # a modulus that does not enter has a total index of exactly zero
+        zero = [k for k in UNCERTAIN if coef[k] == 0]
+        assert all(got[out]["ST"][k] == 0 for k in zero)
+        assert set(got[out]) == {"S1", "S1_conf", "ST", "ST_conf"}
+        assert all(v >= 0 for v in got[out]["ST_conf"].values())
+
+
+def test_ishigami_indices():
+    """The Ishigami function (a = 7, b = 0.1) on [-π, π]³ through three log-uniform moduli: the
+    exact S1 (0.3139, 0.4424, 0) and ST (0.5576, 0.4424, 0.2437) within the bootstrap intervals."""
+    dists = default_distributions()
+    for k in ("plate_e_pa", "stapes_e_pa"):
+        dists[k] = Distribution.fixed(1e9, k)
+    cfg = UQConfig(dists, samples=1_000, sobol_samples=2**13, bootstrap=100, seed=1)
+    x1, x2, x3 = "pedicle_e_pa", "gap_e_pa", "capsule_e_pa"
+
+    def ishigami(moduli):
+        x = [-np.pi + 2 * np.pi * _unit(cfg, moduli, k) for k in (x1, x2, x3)]
+        f = np.sin(x[0]) + 7 * np.sin(x[1]) ** 2 + 0.1 * x[2] ** 4 * np.sin(x[0])
+        return f + 20.0, np.ones_like(f)
+
+    got = sobol_indices(cfg, ishigami, outputs=("alpha_rad",))["alpha_rad"]
+    assert set(got["ST"]) == {x1, x2, x3}  # fixed moduli are not inputs of the analysis
+    exact_s1 = {x1: 0.3139, x2: 0.4424, x3: 0.0}
+    exact_st = {x1: 0.5576, x2: 0.4424, x3: 0.2437}
+    for k in (x1, x2, x3):
+        assert abs(got["S1"][k] - exact_s1[k]) < max(2 * got["S1_conf"][k], 0.02), k
+        assert abs(got["ST"][k] - exact_st[k]) < max(2 * got["ST_conf"][k], 0.02), k
+
+
+def test_draws_are_reproducible_bit_for_bit():
+    cfg = UQConfig.default(**SMALL, seed=7)
+    one, two = sample_moduli(cfg), sample_moduli(cfg)
+    assert all(np.array_equal(one[k], two[k]) for k in MODULI)
+    other = sample_moduli(cfg, seed=8)
+    assert not np.array_equal(one["gap_e_pa"], other["gap_e_pa"])
+    assert np.all(one["incus_e_pa"] == 12e9)  # fixed: the default incus
+    r1, r2 = run_uq(cfg), run_uq(cfg)
+    d1, d2 = r1.to_dict(), r2.to_dict()
+    d1.pop("time_s"), d2.pop("time_s")
+    assert json.dumps(d1) == json.dumps(d2)
+
+
+def test_draws_follow_their_distributions():
+    dists = default_distributions()
+    dists["gap_e_pa"] = Distribution.lognormal(8e6, factor=1.3, name="gap_e_pa")
+    cfg = UQConfig(dists, samples=200_000, seed=0)
+    m = sample_moduli(cfg)
+    # log-uniform: every draw inside the range, ln E uniform (mean in the middle, var w²/12)
+    lo, hi = cfg.distributions["pedicle_e_pa"].low_pa, cfg.distributions["pedicle_e_pa"].high_pa
+    x = np.log(m["pedicle_e_pa"])
+    assert lo <= m["pedicle_e_pa"].min() and m["pedicle_e_pa"].max() <= hi
+    assert x.mean() == pytest.approx(0.5 * math.log(lo * hi), abs=0.01)
+    assert x.var() == pytest.approx(math.log(hi / lo) ** 2 / 12, rel=0.01)
+    # lognormal with a factor 1.3: median 8 MPa, σ of ln E = ln 1.3
+    assert np.median(m["gap_e_pa"]) == pytest.approx(8e6, rel=0.005)
+    assert np.log(m["gap_e_pa"]).std() == pytest.approx(math.log(1.3), rel=0.01)
+
+
+def test_wilson_interval_exact_values():
+    """Wilson score interval: k = 0 of n = 10 gives [0, z²/(n + z²)]; k = n/2 is symmetric."""
+    z2 = 1.959963984540054**2
+    lo, hi = probability_interval(0, 10)
+    assert lo == pytest.approx(0, abs=1e-15) and hi == pytest.approx(z2 / (10 + z2), rel=1e-9)
+    lo, hi = probability_interval(50, 100)
+    half = math.sqrt(z2) / (1 + z2 / 100) * math.sqrt(0.25 / 100 + z2 / 4e4)
+    assert (lo, hi) == pytest.approx((0.5 - half, 0.5 + half), rel=1e-9)
+
+
+def _ratio_evaluator(threshold_pa: float):
+    """β/α = E_gap / threshold: with gap log-uniform on [lo, hi], P(β/α > 1) = ln(hi/t) / ln(hi/lo)."""
+
+    def evaluate(moduli):
+        g = moduli["gap_e_pa"]
+        return np.ones_like(g), g / threshold_pa
+
+    return evaluate
+
+
+def test_probability_and_its_interval_cover_a_known_p():
+    cfg = UQConfig.default(samples=100_000, sobol_samples=64, bootstrap=10)
+    d = cfg.distributions["gap_e_pa"]
+    t = d.low_pa * (d.high_pa / d.low_pa) ** 0.15  # P = 0.85
+    r = run_uq(cfg, _ratio_evaluator(t))
+    lo, hi = r.p_beta_over_alpha_gt_1_ci
+    assert lo < 0.85 < hi and hi - lo < 0.006
+    assert r.p_beta_over_alpha_gt_1 == pytest.approx(0.85, abs=0.004)
+    assert r.sobol["beta_over_alpha"]["ST"]["gap_e_pa"] == pytest.approx(1.0, abs=0.05)
+    assert r.sobol["beta_over_alpha"]["ST"]["pedicle_e_pa"] == 0
+    assert r.sobol["alpha_rad"]["ST"] == dict.fromkeys(UNCERTAIN, 0.0)  # α constant here
+    # coverage: over 40 seeds of 2000 draws each, the 95 % interval holds p nearly every time
+    covered = 0
+    for seed in range(40):
+        c = UQConfig.default(samples=2_000, sobol_samples=64, bootstrap=10, seed=seed)
+        k = int(np.count_nonzero(_ratio_evaluator(t)(sample_moduli(c))[1] > 1))
+        a, b = probability_interval(k, c.samples)
+        covered += a < 0.85 < b
+    assert covered >= 34  # binomial(40, 0.95): P(fewer than 34) < 1e-3
+
+
+def test_lumped_model_structure_in_the_indices():
+    """The lumped model's β has no capsule and α no pedicle term (docs/lumped.md §3.4): their
+    total indices are exactly 0; β is driven by the pedicle and the plate."""
+    r = run_uq(UQConfig.default(samples=20_000, sobol_samples=1024, bootstrap=20))
+    assert r.sobol["beta_rad"]["ST"]["capsule_e_pa"] == 0
+    assert r.sobol["alpha_rad"]["ST"]["pedicle_e_pa"] == 0
+    assert [k for k, _ in r.top_total("beta_rad", 2)] == ["pedicle_e_pa", "plate_e_pa"]
+    direct = lumped_evaluator()(sample_moduli(r.config))
+    assert r.n_beta_over_alpha_gt_1 == int(np.count_nonzero(direct[1] / direct[0] > 1))
+    assert r.n_outside_domain == 0  # log-uniform over the domain stays in it
+
+
+def test_compare_evaluators():
+    cfg = UQConfig.default(**SMALL)
+    lumped = lumped_evaluator()
+
+    def scaled(moduli):
+        a, b = lumped(moduli)
+        return 1.01 * a, b
+
+    same = compare_evaluators(cfg, lumped, lumped)
+    assert same["max_rel_diff_alpha_rad"] == 0 and same["first"] == same["second"]
+    diff = compare_evaluators(cfg, lumped, scaled, where=lambda m: m["gap_e_pa"] > 1e7)
+    assert 0 < diff["n"] < cfg.samples
+    assert diff["max_rel_diff_alpha_rad"] == pytest.approx(0.01, rel=1e-9)
+    assert diff["max_rel_diff_beta_over_alpha"] == pytest.approx(1 - 1 / 1.01, rel=1e-9)
+
+
+def test_json_keys(capsys):
+    assert main(["uq", "--json", "--samples", "2000", "--sobol-samples", "64", "--bootstrap", "10"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    p, (lo, hi) = d["p_beta_over_alpha_gt_1"], d["p_beta_over_alpha_gt_1_ci"]
+    assert 0 <= lo <= p <= hi <= 1 and d["ci_method"] == "wilson" and d["confidence"] == 0.95
+    assert (d["samples"], d["sobol_samples"], d["seed"], d["bootstrap"]) == (2000, 64, 0, 10)
+    assert d["sobol_evaluations"] == 64 * 7
+    assert set(d["sobol"]) == {"alpha_rad", "beta_rad", "beta_over_alpha"}
+    for out in d["sobol"].values():
+        assert set(out) == {"S1", "S1_conf", "ST", "ST_conf"}
+        assert all(set(v) == set(UNCERTAIN) for v in out.values())
+    assert set(d["distributions"]) == set(MODULI)
+    assert d["distributions"]["gap_e_pa"] == {"distribution": "loguniform", "low_pa": 1e6, "high_pa": 50e6}
+    assert d["distributions"]["incus_e_pa"] == {"distribution": "fixed", "value_pa": 12e9}
+    assert set(d["summary"]) == {"alpha_rad", "beta_rad", "alpha_plus_beta_rad", "beta_over_alpha"}
+
+
+def test_config_file_and_out_folder(tmp_path, capsys):
+    cfg = tmp_path / "uq.toml"
+    cfg.write_text(
+        "[uq]\nsamples = 3000\nsobol_samples = 64\nbootstrap = 10\nseed = 5\n"
+        '[uq.gap_e_pa]\ndistribution = "lognormal"\nmedian_pa = 10e6\nfactor = 1.3\n'
+        '[uq.stapes_e_pa]\ndistribution = "fixed"\nvalue_pa = 1e9\n'
+    )
+    out = tmp_path / "res"
+    assert main(["uq", "--config", str(cfg), "--seed", "6", "--json", "--out", str(out)]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert d["seed"] == 6 and d["samples"] == 3000  # the option wins over the file
+    assert d["distributions"]["gap_e_pa"]["sigma_ln"] == pytest.approx(math.log(1.3))
+    assert "stapes_e_pa" not in d["sobol"]["alpha_rad"]["ST"]
+    assert sorted(p.name for p in out.iterdir()) == [
+        "histograms.csv", "quantiles.csv", "sobol.csv", "uq.json", "uq.png"
+    ]  # fmt: skip
+    rec = json.loads((out / "uq.json").read_text())["results"]
+    assert rec["p_beta_over_alpha_gt_1"] == d["p_beta_over_alpha_gt_1"]
+    hist = rec["histograms"]["beta_over_alpha"]
+    assert sum(hist["counts"]) == 3000 and len(hist["edges"]) == len(hist["counts"]) + 1
+    q = (out / "quantiles.csv").read_text().splitlines()
+    assert q[1] == "probability,alpha_rad,beta_rad,alpha_plus_beta_rad,beta_over_alpha"
+    median = next(row for row in q if row.startswith("0.5,")).split(",")
+    assert float(median[4]) == pytest.approx(d["summary"]["beta_over_alpha"]["quantiles"]["0.5"], rel=1e-8)
+
+
+@pytest.mark.parametrize(
+    ("toml", "names"),
+    [
+        ('[uq.gap_e_pa]\ndistribution = "beta"\n', "uq.gap_e_pa.distribution"),
+        ('[uq.gap_e_pa]\ndistribution = "loguniform"\nlow_pa = 5e7\nhigh_pa = 1e6\n', "uq.gap_e_pa.high_pa"),
+        ('[uq.gap_e_pa]\ndistribution = "loguniform"\nlow_pa = 0\nhigh_pa = 1e6\n', "uq.gap_e_pa.low_pa"),
+        ('[uq.gap_e_pa]\ndistribution = "loguniform"\nlow_pa = 1e6\n', "uq.gap_e_pa.high_pa"),
+        ('[uq.gap_e_pa]\ndistribution = "lognormal"\nmedian_pa = 1e7\nfactor = 0.9\n', "uq.gap_e_pa.factor"),
+        ('[uq.gap_e_pa]\ndistribution = "lognormal"\nmedian_pa = 1e7\n', "sigma_ln"),
+        (
+            '[uq.gap_e_pa]\ndistribution = "lognormal"\nmedian_pa = 1e4\nsigma_ln = 2\n',
+            "uq.gap_e_pa.sigma_ln",
+        ),
+        ('[uq.gap_e_pa]\ndistribution = "fixed"\nvalue_pa = "soft"\n', "uq.gap_e_pa.value_pa"),
+        ('[uq.gap_e_pa]\ndistribution = "fixed"\nvalue = 1e6\n', "uq.gap_e_pa.value"),
+        ('[uq.gap]\ndistribution = "fixed"\nvalue_pa = 1e6\n', "uq.gap"),
+        ("[uq]\nsobol_samples = 1000\n", "uq.sobol_samples"),
+        ("[uq]\nsamples = 10\n", "uq.samples"),
+        ("[report]\n", "[uq]"),
+        ("[uq\n", "not valid TOML"),
+    ],
+)
+def test_bad_config_is_one_line_and_writes_nothing(tmp_path, capsys, toml, names):
+    cfg = tmp_path / "bad.toml"
+    cfg.write_text(toml)
+    out = tmp_path / "out"
+    assert main(["uq", "--config", str(cfg), "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("isj: error: ") and "\n" not in err and names in err, err
+    assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    ("argv", "names"),
+    [
+        (["--samples", "10"], "--samples = 10: must be an integer in [1000, 10000000]"),
+        (["--sobol-samples", "100"], "--sobol-samples = 100: must be a power of 2"),
+        (["--bootstrap", "1"], "--bootstrap = 1"),
+        (["--seed", "-1"], "--seed = -1"),
+        (["--config", "missing.toml"], "cannot read"),
+    ],
+)
+def test_bad_options_are_one_line(capsys, argv, names):
+    assert main(["uq", *argv]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and names in err, err
+
+
+def test_all_fixed_and_direct_construction_refused():
+    with pytest.raises(ConfigError, match="at least one"):
+        UQConfig({k: Distribution.fixed(1e9, k) for k in MODULI})
+    with pytest.raises(ConfigError, match="uq.samples"):
+        uq_config_from_dict({"samples": 1.5})
+    with pytest.raises(ConfigError, match="every modulus"):
+        UQConfig({"gap_e_pa": Distribution.loguniform(1e6, 1e7)})
+
+
+def test_report_page():
+    from isj.reports.uq import uq_figure
+
+    r = run_uq(UQConfig.default(**SMALL))
+    fig = uq_figure(r)
+    assert len(fig.axes) == 6
+    text = " ".join(t.get_text() for t in fig.texts)
+    assert f"P(beta/alpha > 1) = {r.p_beta_over_alpha_gt_1:.4f}" in text
+    fig.canvas.draw()  # an Agg canvas of its own, no pyplot
