@@ -34,6 +34,9 @@ SAMPLES_RANGE = (1_000, 10_000_000)
 SOBOL_SAMPLES_RANGE = (2**6, 2**18)
 BOOTSTRAP_RANGE = (10, 10_000)
 SEED_RANGE = (0, 2**32 - 1)
+#: Largest sobol_samples × bootstrap: SALib's bootstrap holds arrays of that many float64 values
+#: (2^24: 134 MB each, about 30 s per output on one core).
+MAX_BOOTSTRAP_DRAWS = 2**24
 #: Largest σ of ln E of a lognormal (a factor e^3 ≈ 20 per standard deviation).
 MAX_SIGMA_LN = 3.0
 #: Φ⁻¹(1 − 0.001): a lognormal's 0.1 % and 99.9 % quantiles must lie in the modulus range.
@@ -202,6 +205,11 @@ class UQConfig:
         if n & (n - 1):
             raise ConfigError(f"uq.sobol_samples = {n}: must be a power of 2 (Sobol' balance), e.g. {2**14}")
         _count("uq.bootstrap", self.bootstrap, *BOOTSTRAP_RANGE)
+        if n * self.bootstrap > MAX_BOOTSTRAP_DRAWS:
+            raise ConfigError(
+                f"uq.sobol_samples x uq.bootstrap = {n} x {self.bootstrap}: must be <= {MAX_BOOTSTRAP_DRAWS} "
+                "(memory of SALib's bootstrap); lower --sobol-samples or --bootstrap"
+            )
         _count("uq.seed", self.seed, *SEED_RANGE)
         if not self.uncertain:
             raise ConfigError("uq: every modulus is fixed; at least one must have a distribution")

@@ -272,6 +272,7 @@ def test_bad_config_is_one_line_and_writes_nothing(tmp_path, capsys, toml, names
         (["--bootstrap", "1"], "--bootstrap = 1"),
         (["--seed", "-1"], "--seed = -1"),
         (["--config", "missing.toml"], "cannot read"),
+        (["--sobol-samples", "262144", "--bootstrap", "100"], "uq.sobol_samples x uq.bootstrap"),
     ],
 )
 def test_bad_options_are_one_line(capsys, argv, names):
