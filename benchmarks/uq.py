@@ -3,7 +3,7 @@
 Run:  .venv/bin/python benchmarks/uq.py [--quick]
 
 Prints, for the default inputs (every modulus log-uniform over the calibrated domain,
-docs/uq.md §2):
+docs/uq.md §11.2):
 
 - the time of ``isj.calibration.uq.run_uq`` at its defaults (10^6 draws, 2^14 Saltelli base
   samples, 100 bootstrap resamples), stage by stage;

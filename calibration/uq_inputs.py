@@ -1,4 +1,4 @@
-"""Inputs of ``isj uq``: a distribution per Young's modulus (Pa), counts and seed (docs/uq.md §2).
+"""Inputs of ``isj uq``: a distribution per Young's modulus (Pa), counts and seed (docs/uq.md §11.2).
 
 The default is log-uniform over the calibrated domain of the lumped model (the shipped
 calibration's ``domain``: the thesis's plausible ranges, docs/lumped.md §3.5, thesis
