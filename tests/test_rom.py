@@ -149,6 +149,15 @@ def test_residual_norm_is_accurate_at_small_residuals(fe, rom):
             assert abs(ours - true) <= 1e-6 * true
 
 
+def test_domain_is_the_shipped_calibrations():
+    from isj.fem.rom.domain import CALIBRATION_DOMAIN_PA, RANGED
+    from isj.lumped.artifact import default_calibration
+
+    dom = default_calibration().domain
+    assert set(dom) == set(RANGED)
+    assert {k: tuple(v) for k, v in dom.items()} == CALIBRATION_DOMAIN_PA
+
+
 def test_outputs_scale_with_pressure(rom):
     a = rom.evaluate(gap_e_pa=2e7, pressure_pa=1.0)
     b = rom.evaluate(gap_e_pa=2e7, pressure_pa=-30.0)

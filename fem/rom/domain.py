@@ -29,12 +29,20 @@ RANGED: tuple[str, ...] = ("pedicle_e_pa", "gap_e_pa", "capsule_e_pa", "plate_e_
 EDGE_SLACK = 1e-12
 
 
+#: The shipped calibration's domain (Pa), ``lumped/data/default_calibration.json``: copied here
+#: because isj.fem may not import isj.lumped; ``tests/test_rom.py`` checks that the two agree.
+CALIBRATION_DOMAIN_PA: dict[str, tuple[float, float]] = {
+    "pedicle_e_pa": (1e9, 27e9),
+    "gap_e_pa": (1e6, 50e6),
+    "capsule_e_pa": (10e6, 300e6),
+    "plate_e_pa": (300e6, 5e9),
+    "stapes_e_pa": (300e6, 5e9),
+}
+
+
 def calibration_domain() -> dict[str, tuple[float, float]]:
     """The shipped calibration's domain: ranged modulus name → (low, high) in Pa."""
-    from isj.lumped.artifact import default_calibration
-
-    dom = default_calibration().domain
-    return {k: (float(dom[k][0]), float(dom[k][1])) for k in RANGED}
+    return dict(CALIBRATION_DOMAIN_PA)
 
 
 @dataclass(frozen=True)
