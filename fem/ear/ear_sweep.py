@@ -1,0 +1,421 @@
+"""The FE whole ear over the audio band through a reduced model (docs/dynamics.md §5).
+
+Two real reductions, both measured against full harmonic solves (benchmarks/ear_sweep_fe.py):
+
+1. the joint model condensed onto its two rigid bodies (:func:`fem.ear.reduced.condense_joint`);
+2. each shell (drum, footplate) condensed onto the dofs where anything else acts
+   (:func:`shell_basis`): static constraint shapes Ψ_s plus a rational Krylov basis of the
+   interior, real solutions (K_II − σ_j M_II)⁻¹ R₀ and (K_II − σ_j M_II)⁻¹ M_II (…) at shifts
+   σ_j = (2π f_j)² evenly spaced in f up to 1.2 f_max and at σ = 0, from R₀ = [f_I, M_II Ψ + M_IB]
+   (the pressure and the inertia of the constraint shapes).
+
+Why not modes. On the coarse test ear (4986 dofs after step 1) 197 drum modes lie below 20 kHz, 412
+below 40 kHz. The lowest modes up to 40 kHz with a static residual left 2–4 % errors in the
+stapes and 30 % in α with the published damping: the cochlea's dashpot (R = 0.19 N·s/m, ζ ≈ 6
+on the stapes) and the joint's loss factors (0.15 against the bone's 0.01) are far from
+proportional, and free modes miss both. Keeping the dofs they act on and reducing only shells
+whose damping is one loss factor each removes that error; the fixed-interface modes up to 30 kHz
+with the first two inertia corrections reached 1e-5 but cost a 4440-dof dense eigenproblem
+(30–40 s), the Krylov basis (20 shifts, two moments) reached 1e-6 in 2–6 s.
+
+The reduced parts are projected once; any damping (a dictionary of η, a, b per part, the
+cochlear impedance, :class:`isj.damping.Damping`) is then a sum of projected parts and one
+dense complex solve per frequency (:meth:`ReducedEar.solve`).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.linalg as sla
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from isj.design import InvalidParameter, Materials
+from isj.ear import EarMasses, EarMaterials
+from isj.validate import check_frequencies
+
+from .reduced import CondensedEar, condense_joint, dynamic_terms, ear_parts, orthonormalize, part_coefficients
+from .shell import NDOF
+
+#: Shell parts condensed by :func:`shell_basis` (each one stiffness and one mass part, so one
+#: loss factor, one Rayleigh pair: proportional damping inside it).
+SHELLS = ("eardrum", "footplate")
+
+#: Outputs of :meth:`ReducedEar.response`, per Pa of ear-canal pressure, and their units.
+OUTPUTS = (
+    "stapes_velocity_m_s", "umbo_velocity_m_s", "stapes_m", "umbo_m", "footplate_piston_m",
+    "footplate_rocking_long_rad", "footplate_rocking_short_rad", "alpha_rad", "beta_rad", "pedicle_share",
+)  # fmt: skip
+UNITS = ("m/s", "m/s", "m", "m", "m", "rad", "rad", "rad", "rad", "1")
+
+#: Shifts per kHz of f_max (:func:`shell_basis`): 20 shifts to 24 kHz gave 1e-6, 15 gave 3e-2.
+SHIFTS_PER_KHZ = 1.0
+
+
+@contextlib.contextmanager
+def one_blas_thread():
+    """Run numpy's OpenBLAS on one thread inside the block (no-op where it cannot be found).
+
+    The per-frequency solves are many small dense operations; on the two shared cores, OpenBLAS's
+    two threads made them 10-100× slower than one (measured: a 216 × 216 complex solve 124 ms
+    against 1.0 ms, the Schur products 38 ms against 4.7 ms, under a load of 4).
+    """
+    lib = _openblas()
+    if lib is None:
+        yield
+        return
+    before = lib.scipy_openblas_get_num_threads64_()
+    lib.scipy_openblas_set_num_threads64_(1)
+    try:
+        yield
+    finally:
+        lib.scipy_openblas_set_num_threads64_(before)
+
+
+def _openblas():
+    import ctypes
+
+    try:
+        with open("/proc/self/maps") as fh:
+            paths = {line.split()[-1] for line in fh if "scipy_openblas64" in line and "numpy" in line}
+        lib = ctypes.CDLL(sorted(paths)[0]) if paths else None
+        if lib is not None:
+            lib.scipy_openblas_get_num_threads64_.restype = ctypes.c_int
+            lib.scipy_openblas_set_num_threads64_.argtypes = [ctypes.c_int]
+        return lib
+    except (OSError, AttributeError, IndexError):
+        return None
+
+
+def _touched(A, n: int) -> np.ndarray:
+    A = sp.coo_matrix(A)
+    t = np.zeros(n, bool)
+    t[A.row] = t[A.col] = True
+    return t
+
+
+def shell_basis(level1, fmax_hz: float, n_shifts: int | None = None, depth: int = 2, tol: float = 1e-10):
+    """Real basis V (n × m) of the level-1 ear: unit vectors on the kept dofs, each shell's interior reduced.
+
+    Parameters
+    ----------
+    level1 : :class:`fem.ear.reduced.CondensedEar` (or :class:`fem.ear.reduced.EarParts`)
+    fmax_hz : highest frequency of interest (Hz); shifts reach 1.2 × it
+    n_shifts : shifts (default :data:`SHIFTS_PER_KHZ` × 1.2 f_max in kHz, at least 4)
+    depth : Krylov moments per shift
+    tol : relative size below which a new vector counts as dependent
+
+    Returns
+    -------
+    V (n, m) and a dict of sizes and seconds; ``interior``: each shell's columns (start, stop).
+    """
+    t0 = time.perf_counter()
+    n = level1.load.size
+    parts = {("k", p): A for p, A in level1.stiffness.items()}
+    parts |= {("m", p): A for p, A in level1.mass.items()} | {("d", p): A for p, A in level1.dashpots.items()}
+    touch = {key: _touched(A, n) for key, A in parts.items()}
+    interior = {}
+    for s in SHELLS:
+        own = touch.get(("k", s), np.zeros(n, bool))
+        other = np.zeros(n, bool)
+        for key, t in touch.items():
+            if key[1] != s:
+                other |= t
+        interior[s] = np.flatnonzero(own & ~other)  # dofs nothing but this shell acts on
+    B = np.setdiff1d(np.arange(n), np.concatenate(list(interior.values())))
+    if n_shifts is None:
+        n_shifts = max(4, int(np.ceil(SHIFTS_PER_KHZ * 1.2 * fmax_hz / 1e3)))
+    f_shift = np.linspace(0.0, 1.2 * fmax_hz, n_shifts + 1)[1:]
+    blocks, info = [], {"kept_dofs": int(B.size), "n_shifts": int(n_shifts), "depth": int(depth)}
+    for s, I in interior.items():
+        if I.size == 0:
+            continue
+        Ks, Ms = sp.csr_matrix(level1.stiffness[s]), sp.csr_matrix(level1.mass.get(s, sp.csr_matrix((n, n))))
+        KII, MII = Ks[I][:, I].tocsc(), Ms[I][:, I].tocsc()
+        lu = spla.splu(KII)
+        psi = -lu.solve(Ks[I][:, B].toarray())
+        live = np.abs(psi).sum(axis=0) > 0
+        R0 = np.column_stack([level1.load[I], (MII @ psi + Ms[I][:, B].toarray())[:, live]])
+        X = [lu.solve(R0)]
+        X.append(lu.solve(MII @ X[-1]))  # static and first inertia correction
+        # a stiff shell (the footplate: first interior mode far above the band) needs no shifts
+        f1 = _lowest_hz(KII, MII, lu)
+        info[f"{s}_first_interior_hz"] = f1
+        for fs in f_shift if f1 < 2 * 1.2 * fmax_hz else ():
+            lus = spla.splu((KII - (2 * np.pi * fs) ** 2 * MII).tocsc())
+            Y = lus.solve(R0)
+            X.append(Y)
+            for _ in range(depth - 1):
+                Y = lus.solve(MII @ Y)
+                X.append(Y)
+        phi = orthonormalize(np.hstack(X), np.sqrt(np.abs(MII.diagonal())), tol)
+        blocks.append((s, I, psi, phi))
+        info[f"{s}_interior_dofs"], info[f"{s}_vectors"] = int(I.size), int(phi.shape[1])
+    m = B.size + sum(b[3].shape[1] for b in blocks)
+    V = np.zeros((n, m))
+    V[B, np.arange(B.size)] = 1.0
+    c = B.size
+    info["interior"] = {}
+    for s, I, psi, phi in blocks:
+        V[I, : B.size] = psi
+        V[np.ix_(I, np.arange(c, c + phi.shape[1]))] = phi
+        info["interior"][s] = (c, c + phi.shape[1])
+        c += phi.shape[1]
+    info["seconds"] = time.perf_counter() - t0
+    return V, info
+
+
+def _lowest_hz(K, M, lu) -> float:
+    """Lowest natural frequency (Hz) of K x = ω² M x (shift-invert about 0 on the factor ``lu``)."""
+    from isj.fem.solvers import lanczos_start
+
+    op = spla.LinearOperator(K.shape, matvec=lu.solve, dtype=float)
+    w2 = spla.eigsh(K, k=1, M=M, sigma=0.0, OPinv=op, tol=1e-6, v0=lanczos_start(K.shape[0]))[0]
+    return float(np.sqrt(max(w2[0], 0.0)) / (2 * np.pi))
+
+
+def output_rows(model) -> tuple[sp.csr_matrix, dict]:
+    """Rows (k × n_dofs) giving, from q: umbo (3), footplate centre (3), footplate fit (3), α and β.
+
+    The fit: the footplate nodes' displacements along the piston direction n, area-weighted least
+    squares w ≈ w₀ + θ_L ζ − θ_S ξ over the footplate (ξ, ζ along its long and short axes): the
+    piston w₀ (m) and the rocking rotations θ_L, θ_S (rad) about the long and short axes.
+    """
+    g, fp, T = model.geometry, model.footplate, model.T
+    umbo = model.drum.node_sets["umbo"][0]
+    centre = fp.node_sets["centre"][0]
+    rows = [T[model.off_drum + NDOF * umbo + np.arange(3)], T[model.off_fp + NDOF * centre + np.arange(3)]]
+    nrm, e_long = np.asarray(fp.normal), np.asarray(g.footplate_long_axis)
+    e_short = np.cross(nrm, e_long)
+    r = fp.nodes_m - np.asarray(g.footplate_centre_m)
+    p = fp.nodes_m[fp.triangles]
+    area = 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
+    w = np.bincount(fp.triangles.ravel(), np.repeat(area / 3, 3), minlength=len(r))  # nodal areas
+    A = np.column_stack([np.ones(len(r)), r @ e_short, -(r @ e_long)])
+    P = np.linalg.solve(A.T @ (w[:, None] * A), (w[:, None] * A).T)  # (3, nodes)
+    nd = model.off_fp + NDOF * np.arange(len(r))
+    normal_rows = sum(nrm[k] * T[nd + k] for k in range(3))  # (nodes, n_q): n · u_i
+    rows.append(sp.csr_matrix(P) @ normal_rows)
+    if model.joint is not None:
+        rows.append(sp.csr_matrix(model.joint.angles[:2]) @ T[model.off_joint : model.off_body])
+    return sp.vstack(rows).tocsr(), {"piston_direction": np.asarray(g.piston_direction)}
+
+
+@dataclass
+class ReducedEar:
+    """The whole ear projected on a real basis V, part by part (module docstring); SI units.
+
+    Attributes
+    ----------
+    stiffness, mass, dashpots : part → VᵀA V (m × m, dense, symmetric)
+    load : (m,) Vᵀ f for 1 Pa (N/Pa)
+    rows : (k, m) outputs (:func:`output_rows`) on the reduced coordinates
+    has_joint : whether α and β exist
+    n_fe_dofs : dofs of the FE ear it reduces
+    footplate_area_m2 : converts the cochlear impedance into its dashpot (m²)
+    n_kept : coordinates before the shells' modal interior ones
+    diagonal_interior : whether every part is diagonal on the interior coordinates (checked)
+    info : sizes and seconds of the reduction
+    """
+
+    stiffness: dict
+    mass: dict
+    dashpots: dict
+    load: np.ndarray
+    rows: np.ndarray
+    piston_direction: np.ndarray
+    has_joint: bool
+    n_fe_dofs: int
+    footplate_area_m2: float = 0.0
+    n_kept: int = 0
+    diagonal_interior: bool = False
+    info: dict = field(default_factory=dict)
+
+    @property
+    def n_dofs(self) -> int:
+        return self.load.size
+
+    def total_stiffness(self) -> np.ndarray:
+        return sum(self.stiffness.values())
+
+    def total_mass(self) -> np.ndarray:
+        return sum(self.mass.values())
+
+    def solve(self, freq_hz, damping=None, chunk: int = 16) -> np.ndarray:
+        """Reduced coordinates (n_freq, m) of Z(ω) y = Vᵀ f, Z from ``damping``'s part factors.
+
+        The shells' interior coordinates are modal (:func:`reduced_ear`): there Z is diagonal and
+        each frequency costs one Schur complement on the ``n_kept`` other coordinates.
+        """
+        freqs = check_frequencies(freq_hz)
+        coef = part_coefficients(damping, self)
+        A0, A1, M = (
+            np.asarray(X, complex) for X in dynamic_terms(self.stiffness, self.mass, self.dashpots, coef)
+        )
+        w = 2 * np.pi * freqs
+        k = self.n_kept if self.diagonal_interior else self.n_dofs
+        d = [np.diagonal(X)[k:] for X in (A0, A1, M)]
+        y = np.zeros((freqs.size, self.n_dofs), complex)
+        with one_blas_thread():
+            self._solve_chunks(w, A0, A1, M, d, k, y, chunk)
+        return y
+
+    def _solve_chunks(self, w, A0, A1, M, d, k, y, chunk) -> None:
+        f1, f2 = self.load[:k], self.load[k:]
+        for i in range(0, w.size, chunk):  # stacked solves: a few at a time, memory bounded
+            wi = w[i : i + chunk, None, None]
+            Z11 = A0[None, :k, :k] + 1j * wi * A1[None, :k, :k] - wi**2 * M[None, :k, :k]
+            Z12 = A0[None, :k, k:] + 1j * wi * A1[None, :k, k:] - wi**2 * M[None, :k, k:]
+            z = d[0][None] + 1j * wi[:, :, 0] * d[1][None] - wi[:, :, 0] ** 2 * d[2][None]  # (c, n_i)
+            S = Z11 - (Z12 / z[:, None, :]) @ Z12.transpose(0, 2, 1)  # Z21 = Z12ᵀ: Z is symmetric
+            r = f1[None] - (Z12 @ (f2[None] / z)[..., None])[..., 0]
+            y1 = np.linalg.solve(S, r[..., None])[..., 0]
+            y[i : i + chunk, :k] = y1
+            y[i : i + chunk, k:] = (f2[None] - (y1[:, None, :] @ Z12)[:, 0]) / z
+
+    def static(self) -> dict:
+        """Undamped static response per Pa: umbo vector (3,), footplate centre (3,), fit (3,), α, β."""
+        y = np.linalg.solve(self.total_stiffness(), self.load)
+        return self._split(self.rows @ y)
+
+    def _split(self, out) -> dict:
+        out = np.asarray(out)
+        d = {"umbo_vector": out[..., 0:3], "footplate": out[..., 3:6], "fit": out[..., 6:9]}
+        d["alpha"] = out[..., 9] if self.has_joint else None
+        d["beta"] = out[..., 10] if self.has_joint else None
+        return d
+
+    def outputs(self, freq_hz, damping=None) -> np.ndarray:
+        """(n, 4) complex: umbo (along its static direction), stapes piston (m/Pa), α, β (rad/Pa),
+        the columns of :meth:`fem.ear.ear_dynamics.EarHarmonicResult.outputs`."""
+        return self._columns(freq_hz, damping)[0][:, [3, 2, 7, 8]]
+
+    def _columns(self, freq_hz, damping):
+        freqs = check_frequencies(freq_hz)
+        s = self.static()
+        d_umbo = s["umbo_vector"] / np.linalg.norm(s["umbo_vector"])
+        o = self._split(self.solve(freqs, damping) @ self.rows.T)
+        x_st = o["footplate"] @ self.piston_direction
+        x_um = o["umbo_vector"] @ d_umbo
+        iw = 2j * np.pi * freqs
+        zero = np.zeros(freqs.size, complex)
+        a = zero if o["alpha"] is None else o["alpha"]
+        b = zero if o["beta"] is None else o["beta"]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            share = np.where(a + b != 0, b / (a + b), np.nan) if self.has_joint else zero * np.nan
+        cols = [iw * x_st, iw * x_um, x_st, x_um, o["fit"][:, 0], o["fit"][:, 1], o["fit"][:, 2], a, b, share]
+        return np.column_stack(cols), freqs
+
+    def response(self, freq_hz, damping=None):
+        """The field's quantities per Pa of ear-canal pressure (:data:`OUTPUTS`, :data:`UNITS`).
+
+        H_V = ``stapes_velocity_m_s`` (the footplate centre's velocity along the piston direction,
+        m/s per Pa), the umbo's velocity along its static direction, both displacements, the
+        footplate's piston and rocking components (:func:`output_rows`), the joint model's α and β
+        (zero for the rigid joint) and the pedicle's share β/(α+β) of the incus-to-stapes
+        relative rotation (NaN for the rigid joint). An :class:`isj.responses.FrequencyResponse`.
+        """
+        from isj.responses import FrequencyResponse
+
+        H, freqs = self._columns(freq_hz, damping)
+        return FrequencyResponse(freqs, H, OUTPUTS, UNITS)
+
+    def natural_frequencies(self, n: int | None = None) -> np.ndarray:
+        """Undamped natural frequencies (Hz) of the reduced model, ascending (the ``n`` lowest)."""
+        import scipy.linalg as sla
+
+        w2 = sla.eigh(self.total_stiffness(), self.total_mass(), eigvals_only=True)
+        f = np.sqrt(np.maximum(w2, 0.0)) / (2 * np.pi)
+        return f if n is None else f[:n]
+
+
+def reduced_ear(
+    model,
+    materials: Materials | None = None,
+    ear_materials: EarMaterials | None = None,
+    masses: EarMasses | None = None,
+    fmax_hz: float = 20e3,
+    n_shifts: int | None = None,
+    joint_enrich: tuple[str, ...] = ("mass", "mass2", "damping", "cross"),
+) -> ReducedEar:
+    """Reduce the FE ear for responses up to ``fmax_hz`` (Hz), for any damping (module docstring).
+
+    Parameters
+    ----------
+    model : :class:`fem.ear.middle_ear.MiddleEarModel` (with the joint model or rigid)
+    materials, ear_materials, masses : as :func:`fem.ear.ear_dynamics.harmonic` (the basis is
+        built for these; a change of them needs a new reduction)
+    fmax_hz : highest frequency the basis is built for (Hz)
+    n_shifts : Krylov shifts (:func:`shell_basis`)
+    joint_enrich : interior vectors of the joint (:func:`fem.ear.reduced.condense_joint`)
+
+    Returns
+    -------
+    :class:`ReducedEar`; ``info`` holds the sizes and the seconds of each step.
+    """
+    if not (np.isfinite(fmax_hz) and fmax_hz > 0):
+        raise InvalidParameter(f"fmax_hz = {fmax_hz!r} Hz: must be a finite number > 0")
+    t0 = time.perf_counter()
+    parts = ear_parts(model, materials, ear_materials, masses)
+    t1 = time.perf_counter()
+    if model.joint is not None:
+        level1 = condense_joint(parts, model, joint_enrich)
+    else:
+        n = model.n_dofs
+        z = np.zeros((0, 0))
+        level1 = CondensedEar(parts.stiffness, parts.mass, parts.dashpots, parts.load, np.arange(n),
+                              np.zeros(0, int), np.zeros(0, int), z, z, n)  # fmt: skip
+    t2 = time.perf_counter()
+    V, info = shell_basis(level1, fmax_hz, n_shifts)
+    t3 = time.perf_counter()
+
+    def project(A, W):
+        P = W.T @ np.asarray(A @ W)
+        return 0.5 * (P + P.T)  # symmetric to rounding, as every part
+
+    groups = {
+        g: {k: project(A, V) for k, A in getattr(level1, g).items()}
+        for g in ("stiffness", "mass", "dashpots")
+    }
+    load, rows = V.T @ level1.load, level1.restrict(output_rows(model)[0]) @ V
+    # each shell's interior coordinates made modal: only that shell's parts act on them, so every
+    # part, and Z for any damping, is diagonal there (checked below)
+    for name, (a, b) in info["interior"].items():
+        U = sla.eigh(groups["stiffness"][name][a:b, a:b], groups["mass"][name][a:b, a:b])[1]
+        for P in (P for g in groups.values() for P in g.values()):
+            P[:, a:b] = P[:, a:b] @ U
+            P[a:b, :] = U.T @ P[a:b, :]
+        load[a:b] = U.T @ load[a:b]
+        rows[:, a:b] = rows[:, a:b] @ U
+    k = info["kept_dofs"]
+    off = max(np.abs(P[k:, k:] - np.diag(np.diagonal(P[k:, k:]))).max(initial=0.0) / max(abs(P).max(), 1e-300)
+              for g in groups.values() for P in g.values())  # fmt: skip
+    out = ReducedEar(
+        **groups,
+        load=load,
+        rows=rows,
+        piston_direction=np.asarray(model.geometry.piston_direction, float),
+        has_joint=model.joint is not None,
+        n_fe_dofs=model.n_dofs,
+        footplate_area_m2=parts.footplate_area_m2,
+        n_kept=k,
+        diagonal_interior=bool(off <= 1e-10),
+    )
+    t4 = time.perf_counter()
+    out.info = info | {
+        "level1_dofs": int(level1.n_dofs),
+        "n_dofs": out.n_dofs,
+        "interior_off_diagonal": float(off),
+        "timings_s": {
+            "parts": t1 - t0,
+            "joint": t2 - t1,
+            "shells": t3 - t2,
+            "project": t4 - t3,
+            "total": t4 - t0,
+        },
+    }
+    return out
