@@ -316,12 +316,24 @@ def run_uq(
     )
 
 
-def compare_evaluators(config: UQConfig, first: Evaluator, second: Evaluator, where=None) -> dict:
+def compare_evaluators(
+    config: UQConfig, first: Evaluator, second: Evaluator, where=None, names=("first", "second")
+) -> dict:
     """The same Monte Carlo draws through two evaluators (e.g. the lumped model and a surrogate).
 
-    ``where``: optional callable moduli → boolean mask, the draws to compare (e.g. those outside
-    the lumped model's 3 % region); default all. Returns per evaluator P(β/α > 1) with its Wilson
-    interval over those draws, and the largest relative differences of α, β and β/α.
+    Parameters
+    ----------
+    config : the draws (``config.samples``, ``config.seed``), as in :func:`run_uq`
+    first, second : evaluators; relative differences are second / first − 1
+    where : optional callable moduli → boolean mask, the draws to compare (e.g. those outside the
+        lumped model's 3 % region, or inside a surrogate's domain); default all
+    names : the keys of the two evaluators in the result
+
+    Returns
+    -------
+    dict : ``n`` (draws compared), per name P(β/α > 1) with its Wilson interval over those draws,
+        ``max_rel_diff_*`` and ``rms_rel_diff_*`` of α, β and β/α, and ``n_disagree``: draws on
+        which the two disagree about β/α > 1
     """
     moduli = sample_moduli(config)
     if where is not None:
@@ -332,12 +344,15 @@ def compare_evaluators(config: UQConfig, first: Evaluator, second: Evaluator, wh
         return {"n": 0}
     ya, yb = evaluate_outputs(first, moduli), evaluate_outputs(second, moduli)
     out = {"n": n}
-    for tag, y in (("first", ya), ("second", yb)):
+    for tag, y in zip(names, (ya, yb), strict=True):
         k = int(np.count_nonzero(y["beta_over_alpha"] > 1))
         out[tag] = {
             "p_beta_over_alpha_gt_1": k / n,
             "p_beta_over_alpha_gt_1_ci": list(probability_interval(k, n)),
         }
     for key in ("alpha_rad", "beta_rad", "beta_over_alpha"):
-        out[f"max_rel_diff_{key}"] = float(np.max(np.abs(yb[key] / ya[key] - 1)))
+        d = yb[key] / ya[key] - 1
+        out[f"max_rel_diff_{key}"] = float(np.max(np.abs(d)))
+        out[f"rms_rel_diff_{key}"] = float(np.sqrt(np.mean(d**2)))
+    out["n_disagree"] = int(np.count_nonzero((ya["beta_over_alpha"] > 1) != (yb["beta_over_alpha"] > 1)))
     return out

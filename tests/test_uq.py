@@ -299,3 +299,56 @@ def test_report_page():
     text = " ".join(t.get_text() for t in fig.texts)
     assert f"P(beta/alpha > 1) = {r.p_beta_over_alpha_gt_1:.4f}" in text
     fig.canvas.draw()  # an Agg canvas of its own, no pyplot
+
+
+class _FakeSurrogate:
+    """Stands in for isj.fem.rom's ReducedModel: the lumped model with α 1 % larger."""
+
+    def __init__(self):
+        from isj.fem.rom import DesignSpace
+
+        self.space = DesignSpace()
+        self.meta = {"mesh_hash": "fake"}
+        self.calls = 0
+
+    def evaluate(self, designs, pressure_pa):
+        E = self.space.designs_from(designs)  # refuses a design outside the domain, like the real one
+        self.calls += 1
+        a, b = lumped_evaluator(pressure_pa=pressure_pa)(dict(zip(UNCERTAIN, E.T, strict=True)))
+        return {"alpha_rad": 1.01 * a, "beta_rad": b}
+
+
+@pytest.fixture()
+def fake_surrogate(monkeypatch):
+    import isj.fem.rom
+
+    fake = _FakeSurrogate()
+    monkeypatch.setattr(isj.fem.rom, "reduced_model", lambda **kw: fake)
+    return fake
+
+
+def test_surrogate_evaluator_and_comparison(fake_surrogate, capsys, tmp_path):
+    argv = ["uq", "--json", "--samples", "4000", "--sobol-samples", "64", "--bootstrap", "10"]
+    assert main([*argv, "--evaluator", "surrogate"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert d["evaluator"] == "surrogate" and fake_surrogate.calls == 2  # Monte Carlo and Sobol'
+    assert main([*argv, "--compare-surrogate"]) == 0
+    d2 = json.loads(capsys.readouterr().out)
+    cmp = d2["surrogate_comparison"]
+    assert d2["evaluator"] == "lumped" and cmp["n"] == 4000 and cmp["mesh_hash"] == "fake"
+    assert cmp["max_rel_diff_alpha_rad"] == pytest.approx(0.01, rel=1e-9)
+    assert cmp["max_rel_diff_beta_rad"] == pytest.approx(0, abs=1e-15)
+    # the surrogate's P is that of the lumped model with alpha scaled by 1.01
+    assert cmp["surrogate"]["p_beta_over_alpha_gt_1"] == d["p_beta_over_alpha_gt_1"]
+    assert cmp["lumped"]["p_beta_over_alpha_gt_1"] == d2["p_beta_over_alpha_gt_1"]
+    # a lognormal reaches outside the surrogate's domain: refused before anything is built
+    cfg = tmp_path / "ln.toml"
+    cfg.write_text('[uq.gap_e_pa]\ndistribution = "lognormal"\nmedian_pa = 1e7\nfactor = 1.3\n')
+    fake_surrogate.calls = 0
+    assert main(["uq", "--config", str(cfg), "--evaluator", "surrogate"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "uq.gap_e_pa is lognormal" in err and fake_surrogate.calls == 0
+    # --compare-surrogate takes the lognormal draws inside the domain only
+    assert main(["uq", "--config", str(cfg), *argv[1:], "--compare-surrogate"]) == 0
+    cmp = json.loads(capsys.readouterr().out)["surrogate_comparison"]
+    assert 3000 < cmp["n"] <= 4000

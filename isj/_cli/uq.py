@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 
+from isj.errors import UsageError
+
 from . import _common as c
 
 #: What ``isj uq --out DIR`` writes; the folder is replaced as a whole.
@@ -70,6 +72,20 @@ def register(sub) -> None:
         type=c.int_option("--seed", *SEED_RANGE),
         help=f"seed of the draws, the Sobol' points and the bootstrap, in [0, {SEED_RANGE[1]}] (default 0)",
     )
+    p.add_argument(
+        "--evaluator",
+        choices=("lumped", "surrogate"),
+        default="lumped",
+        help="the model the draws go through: the calibrated lumped model (default) or the certified "
+        "surrogate of the default FE mesh (isj rom build; built here, minutes, if not cached); the "
+        "surrogate takes only distributions inside its domain",
+    )
+    p.add_argument(
+        "--compare-surrogate",
+        action="store_true",
+        help="also run the Monte Carlo draws inside the surrogate's domain through both models and "
+        "report P(beta/alpha > 1) for each and their largest differences",
+    )
     c.pressure_option(p)
     c.add_calibration_option(p)
     p.add_argument(
@@ -86,8 +102,9 @@ def _csv(header: str, rows) -> str:
     return header + "\n" + "\n".join(",".join(str(v) for v in row) for row in rows) + "\n"
 
 
-def write_outputs(folder, args, result) -> None:
-    """The files of :data:`UQ_FILES` into ``folder`` (each written atomically)."""
+def write_outputs(folder, args, result, summary: dict | None = None) -> None:
+    """The files of :data:`UQ_FILES` into ``folder`` (each written atomically); ``summary``: the
+    JSON for uq.json (default ``result.to_dict()``)."""
     from isj.atomic import atomic_write_text
     from isj.calibration.uq import OUTPUTS, QUANTILES, UNITS
     from isj.reports.uq import uq_figure
@@ -114,9 +131,69 @@ def write_outputs(folder, args, result) -> None:
         for m in ix["ST"]
     ]
     atomic_write_text(folder / "sobol.csv", _csv("output,modulus,S1,S1_conf,ST,ST_conf", rows))
-    write_run_record(folder / "uq.json", args, {**result.to_dict(), "histograms": result.histogram_dict()})
+    summary = result.to_dict() if summary is None else summary
+    write_run_record(folder / "uq.json", args, {**summary, "histograms": result.histogram_dict()})
     fig = uq_figure(result)
     fig.savefig(folder / "uq.png", dpi=110)
+
+
+def surrogate_evaluator(rom, pressure_pa: float):
+    """The surrogate (:class:`isj.fem.rom.ReducedModel`) as an evaluator of
+    :mod:`isj.calibration.uq`: moduli (Pa) → (α, β) in rad; a design outside its domain is refused."""
+    from isj.fem.rom import RANGED
+
+    def evaluate(moduli):
+        r = rom.evaluate({k: moduli[k] for k in (*RANGED, "incus_e_pa")}, pressure_pa)
+        return r["alpha_rad"], r["beta_rad"]
+
+    evaluate.name = "surrogate"
+    return evaluate
+
+
+def _support(space) -> dict[str, tuple[float, float]]:
+    """Per modulus, the surrogate's [low, high] (Pa), the incus's a single value."""
+    return dict(space.bounds) | {"incus_e_pa": (space.incus_e_pa, space.incus_e_pa)}
+
+
+def inside_surrogate(space):
+    """moduli → boolean mask of the draws inside the surrogate's domain (its edge slack included)."""
+    from isj.fem.rom.domain import EDGE_SLACK
+
+    def mask(moduli):
+        ok = None
+        for k, (lo, hi) in _support(space).items():
+            v = moduli[k]
+            inside = (v >= lo * (1 - EDGE_SLACK)) & (v <= hi * (1 + EDGE_SLACK))
+            ok = inside if ok is None else ok & inside
+        return ok
+
+    return mask
+
+
+def check_surrogate_support(config, space) -> None:
+    """Refuse, before the surrogate is built, a distribution that reaches outside its domain."""
+    why = "--evaluator surrogate"
+    for k, (lo, hi) in _support(space).items():
+        d = config.distributions[k]
+        rng = f"[{lo:g}, {hi:g}] Pa"
+        if d.kind == "lognormal":
+            raise UsageError(f"{why}: uq.{k} is lognormal (unbounded); the surrogate holds on {rng} only")
+        a, b = (d.low_pa, d.high_pa) if d.kind == "loguniform" else (d.value_pa, d.value_pa)
+        if a < lo * (1 - 1e-12) or b > hi * (1 + 1e-12):
+            raise UsageError(f"{why}: uq.{k} spans {a:g}..{b:g} Pa, outside the surrogate's {rng}")
+
+
+def _surrogate(args):
+    """The default mesh's surrogate (P2, resolution 1, default geometry): cached, else built."""
+    import sys
+
+    from isj.fem.rom import reduced_model
+
+    def progress(step):
+        if not args.json and step["n_snapshots"] % 10 == 0:
+            print(f"  building the surrogate: {step['n_snapshots']} FE snapshots", file=sys.stderr)
+
+    return reduced_model(progress=progress)
 
 
 def uq(args) -> int:
@@ -133,15 +210,29 @@ def uq(args) -> int:
         config = load_uq_config(args.config, cal.domain, **counts)
     else:
         config = UQConfig.default(cal.domain, **{k: v for k, v in counts.items() if v is not None})
-    model = LumpedModel(cal)
-    result = run_uq(
-        config, lumped_evaluator(model, args.pressure), pressure_pa=args.pressure, domain=cal.domain
-    )
+    lumped = lumped_evaluator(LumpedModel(cal), args.pressure)
+    rom = None
+    if args.evaluator == "surrogate" or args.compare_surrogate:
+        from isj.fem.rom import DesignSpace
+
+        if args.evaluator == "surrogate":
+            check_surrogate_support(config, DesignSpace())
+        c.check_model_size(None, 2, 1.0)
+        rom = _surrogate(args)
+    evaluator = surrogate_evaluator(rom, args.pressure) if args.evaluator == "surrogate" else lumped
+    result = run_uq(config, evaluator, pressure_pa=args.pressure, domain=cal.domain)
     summary = result.to_dict()
+    if args.compare_surrogate:
+        from isj.calibration.uq import compare_evaluators
+
+        surrogate = surrogate_evaluator(rom, args.pressure)
+        where = inside_surrogate(rom.space)
+        cmp = compare_evaluators(config, lumped, surrogate, where, ("lumped", "surrogate"))
+        summary["surrogate_comparison"] = cmp | {"mesh_hash": rom.meta.get("mesh_hash")}
     c.check_finite(summary, f"--pressure {args.pressure:g}, the distributions of --config")
     if out is not None:
         with replace_dir(out) as staging:  # the five files appear together or not at all
-            write_outputs(staging, args, result)
+            write_outputs(staging, args, result, summary)
     if args.json:
         c.print_json(summary)
         return 0
@@ -170,6 +261,22 @@ def uq(args) -> int:
     if result.n_outside_domain:
         frac = result.n_outside_domain / config.samples
         print(f"  {result.n_outside_domain} draws ({100 * frac:.2f} %) outside the calibrated domain")
+    cmp = summary.get("surrogate_comparison")
+    if cmp and cmp["n"]:
+        (a, b), (x, y) = (
+            cmp["lumped"]["p_beta_over_alpha_gt_1_ci"],
+            cmp["surrogate"]["p_beta_over_alpha_gt_1_ci"],
+        )
+        print(
+            f"lumped against the surrogate on the {cmp['n']} draws inside its domain: P(beta/alpha > 1) "
+            f"{cmp['lumped']['p_beta_over_alpha_gt_1']:.5f} [{a:.5f}, {b:.5f}] against "
+            f"{cmp['surrogate']['p_beta_over_alpha_gt_1']:.5f} [{x:.5f}, {y:.5f}]; largest differences alpha "
+            f"{100 * cmp['max_rel_diff_alpha_rad']:.2f} %, beta {100 * cmp['max_rel_diff_beta_rad']:.2f} %, "
+            f"beta/alpha {100 * cmp['max_rel_diff_beta_over_alpha']:.2f} %; "
+            f"{cmp['n_disagree']} draws disagree"
+        )
+    elif cmp is not None:
+        print("lumped against the surrogate: no draw inside the surrogate's domain")
     if out is not None:
         print(f"wrote {out}/ ({', '.join(sorted(UQ_FILES))})")
     return 0
