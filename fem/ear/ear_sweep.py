@@ -25,7 +25,6 @@ dense complex solve per frequency (:meth:`ReducedEar.solve`).
 
 from __future__ import annotations
 
-import contextlib
 import time
 from dataclasses import dataclass, field
 
@@ -38,7 +37,16 @@ from isj.design import InvalidParameter, Materials
 from isj.ear import EarMasses, EarMaterials
 from isj.validate import check_frequencies
 
-from .reduced import CondensedEar, condense_joint, dynamic_terms, ear_parts, orthonormalize, part_coefficients
+from .reduced import (
+    CondensedEar,
+    condense_joint,
+    dynamic_terms,
+    ear_parts,
+    lowest_frequency_hz,
+    one_blas_thread,
+    orthonormalize,
+    part_coefficients,
+)
 from .shell import NDOF
 
 #: Shell parts condensed by :func:`shell_basis` (each one stiffness and one mass part, so one
@@ -54,41 +62,6 @@ UNITS = ("m/s", "m/s", "m", "m", "m", "rad", "rad", "rad", "rad", "1")
 
 #: Shifts per kHz of f_max (:func:`shell_basis`): 20 shifts to 24 kHz gave 1e-6, 15 gave 3e-2.
 SHIFTS_PER_KHZ = 1.0
-
-
-@contextlib.contextmanager
-def one_blas_thread():
-    """Run numpy's OpenBLAS on one thread inside the block (no-op where it cannot be found).
-
-    The per-frequency solves are many small dense operations; on the two shared cores, OpenBLAS's
-    two threads made them 10-100× slower than one (measured: a 216 × 216 complex solve 124 ms
-    against 1.0 ms, the Schur products 38 ms against 4.7 ms, under a load of 4).
-    """
-    lib = _openblas()
-    if lib is None:
-        yield
-        return
-    before = lib.scipy_openblas_get_num_threads64_()
-    lib.scipy_openblas_set_num_threads64_(1)
-    try:
-        yield
-    finally:
-        lib.scipy_openblas_set_num_threads64_(before)
-
-
-def _openblas():
-    import ctypes
-
-    try:
-        with open("/proc/self/maps") as fh:
-            paths = {line.split()[-1] for line in fh if "scipy_openblas64" in line and "numpy" in line}
-        lib = ctypes.CDLL(sorted(paths)[0]) if paths else None
-        if lib is not None:
-            lib.scipy_openblas_get_num_threads64_.restype = ctypes.c_int
-            lib.scipy_openblas_set_num_threads64_.argtypes = [ctypes.c_int]
-        return lib
-    except (OSError, AttributeError, IndexError):
-        return None
 
 
 def _touched(A, n: int) -> np.ndarray:
@@ -143,7 +116,7 @@ def shell_basis(level1, fmax_hz: float, n_shifts: int | None = None, depth: int 
         X = [lu.solve(R0)]
         X.append(lu.solve(MII @ X[-1]))  # static and first inertia correction
         # a stiff shell (the footplate: first interior mode far above the band) needs no shifts
-        f1 = _lowest_hz(KII, MII, lu)
+        f1 = lowest_frequency_hz(KII, MII, lu)
         info[f"{s}_first_interior_hz"] = f1
         for fs in f_shift if f1 < 2 * 1.2 * fmax_hz else ():
             lus = spla.splu((KII - (2 * np.pi * fs) ** 2 * MII).tocsc())
@@ -169,40 +142,35 @@ def shell_basis(level1, fmax_hz: float, n_shifts: int | None = None, depth: int 
     return V, info
 
 
-def _lowest_hz(K, M, lu) -> float:
-    """Lowest natural frequency (Hz) of K x = ω² M x (shift-invert about 0 on the factor ``lu``)."""
-    from isj.fem.solvers import lanczos_start
-
-    op = spla.LinearOperator(K.shape, matvec=lu.solve, dtype=float)
-    w2 = spla.eigsh(K, k=1, M=M, sigma=0.0, OPinv=op, tol=1e-6, v0=lanczos_start(K.shape[0]))[0]
-    return float(np.sqrt(max(w2[0], 0.0)) / (2 * np.pi))
-
-
-def output_rows(model) -> tuple[sp.csr_matrix, dict]:
-    """Rows (k × n_dofs) giving, from q: umbo (3), footplate centre (3), footplate fit (3), α and β.
-
-    The fit: the footplate nodes' displacements along the piston direction n, area-weighted least
-    squares w ≈ w₀ + θ_L ζ − θ_S ξ over the footplate (ξ, ζ along its long and short axes): the
-    piston w₀ (m) and the rocking rotations θ_L, θ_S (rad) about the long and short axes.
-    """
+def output_rows(model) -> sp.csr_matrix:
+    """Rows (k × n_dofs) giving, from q: the umbo's translation (3, m), the footplate centre's (3, m),
+    the footplate's piston and rocking (3: m, rad, rad; :func:`footplate_fit`), α and β (rad)."""
     g, fp, T = model.geometry, model.footplate, model.T
     umbo = model.drum.node_sets["umbo"][0]
     centre = fp.node_sets["centre"][0]
     rows = [T[model.off_drum + NDOF * umbo + np.arange(3)], T[model.off_fp + NDOF * centre + np.arange(3)]]
-    nrm, e_long = np.asarray(fp.normal), np.asarray(g.footplate_long_axis)
-    e_short = np.cross(nrm, e_long)
-    r = fp.nodes_m - np.asarray(g.footplate_centre_m)
-    p = fp.nodes_m[fp.triangles]
-    area = 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
-    w = np.bincount(fp.triangles.ravel(), np.repeat(area / 3, 3), minlength=len(r))  # nodal areas
-    A = np.column_stack([np.ones(len(r)), r @ e_short, -(r @ e_long)])
-    P = np.linalg.solve(A.T @ (w[:, None] * A), (w[:, None] * A).T)  # (3, nodes)
+    P = footplate_fit(fp, g)
+    nrm, r = np.asarray(fp.normal), fp.nodes_m
     nd = model.off_fp + NDOF * np.arange(len(r))
     normal_rows = sum(nrm[k] * T[nd + k] for k in range(3))  # (nodes, n_q): n · u_i
     rows.append(sp.csr_matrix(P) @ normal_rows)
     if model.joint is not None:
         rows.append(sp.csr_matrix(model.joint.angles[:2]) @ T[model.off_joint : model.off_body])
-    return sp.vstack(rows).tocsr(), {"piston_direction": np.asarray(g.piston_direction)}
+    return sp.vstack(rows).tocsr()
+
+
+def footplate_fit(fp, geometry) -> np.ndarray:
+    """(3, nodes) P: (w₀ (m), θ_L, θ_S (rad)) = P w, the area-weighted least-squares plane
+    w ≈ w₀ + θ_L ζ − θ_S ξ through the nodes' displacements w along the piston direction, ξ and ζ
+    the nodes' coordinates (m) along the footplate's long and short axes from its centre: the
+    piston and the rotations about the long and short axes (right-handed, e_long × e_short = n)."""
+    nrm, e_long = np.asarray(fp.normal), np.asarray(geometry.footplate_long_axis)
+    r = fp.nodes_m - np.asarray(geometry.footplate_centre_m)
+    p = fp.nodes_m[fp.triangles]
+    area = 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
+    w = np.bincount(fp.triangles.ravel(), np.repeat(area / 3, 3), minlength=len(r))  # nodal areas
+    A = np.column_stack([np.ones(len(r)), r @ np.cross(nrm, e_long), -(r @ e_long)])
+    return np.linalg.solve(A.T @ (w[:, None] * A), (w[:, None] * A).T)
 
 
 @dataclass
@@ -340,7 +308,7 @@ def reduced_ear(
     masses: EarMasses | None = None,
     fmax_hz: float = 20e3,
     n_shifts: int | None = None,
-    joint_enrich: tuple[str, ...] = ("mass", "mass2", "damping", "cross"),
+    joint_enrich: tuple[str, ...] = ("mass", "damping", "cross"),
 ) -> ReducedEar:
     """Reduce the FE ear for responses up to ``fmax_hz`` (Hz), for any damping (module docstring).
 
@@ -373,15 +341,20 @@ def reduced_ear(
     V, info = shell_basis(level1, fmax_hz, n_shifts)
     t3 = time.perf_counter()
 
+    asym = [0.0]
+
     def project(A, W):
-        P = W.T @ np.asarray(A @ W)
+        t = np.flatnonzero(_touched(A, W.shape[0]))  # most parts act on few dofs: only those rows
+        A = sp.csr_matrix(A)[t][:, t]
+        P = W[t].T @ np.asarray(A @ W[t])
+        asym[0] = max(asym[0], abs(P - P.T).max() / max(abs(P).max(), 1e-300))
         return 0.5 * (P + P.T)  # symmetric to rounding, as every part
 
     groups = {
         g: {k: project(A, V) for k, A in getattr(level1, g).items()}
         for g in ("stiffness", "mass", "dashpots")
     }
-    load, rows = V.T @ level1.load, level1.restrict(output_rows(model)[0]) @ V
+    load, rows = V.T @ level1.load, level1.restrict(output_rows(model)) @ V
     # each shell's interior coordinates made modal: only that shell's parts act on them, so every
     # part, and Z for any damping, is diagonal there (checked below)
     for name, (a, b) in info["interior"].items():
@@ -410,6 +383,7 @@ def reduced_ear(
         "level1_dofs": int(level1.n_dofs),
         "n_dofs": out.n_dofs,
         "interior_off_diagonal": float(off),
+        "asymmetry": float(asym[0]),
         "timings_s": {
             "parts": t1 - t0,
             "joint": t2 - t1,
@@ -419,3 +393,96 @@ def reduced_ear(
         },
     }
     return out
+
+
+# ---------------------------------------------------------------------------- checks
+
+
+#: Largest magnitude error (relative) and phase error (degrees) the self-checks accept.
+CHECK_TOLERANCE = (0.01, 1.0)
+
+
+def check_frequencies_hz(fmin_hz: float, fmax_hz: float, n: int = 3) -> np.ndarray:
+    """``n`` check frequencies log-spaced over the band, both ends included (so one above 10 kHz
+    whenever the band reaches past it)."""
+    return np.geomspace(fmin_hz, fmax_hz, n) if n > 1 else np.array([fmax_hz], float)[:n]
+
+
+def check_against_direct(model, rom: ReducedEar, freq_hz, damping=None, materials=None, ear_materials=None,
+                         masses=None, tolerance=CHECK_TOLERANCE) -> dict:  # fmt: skip
+    """The reduced model against direct FE harmonic solves (:func:`fem.ear.ear_dynamics.harmonic`).
+
+    Returns
+    -------
+    dict: ``checks`` (per frequency: both responses as [re, im] per output, ``{output}_mag_rel_error``
+    = ||reduced|/|direct| − 1|, ``{output}_phase_error_deg``, ``passed``), the largest errors
+    ``max_mag_rel_error`` and ``max_phase_error_deg``, ``passed`` and the direct solves' seconds.
+    Outputs: umbo, stapes (m/Pa), and α, β (rad/Pa) with the joint.
+    """
+    freqs = check_frequencies(freq_hz)
+    t0 = time.perf_counter()
+    direct = model.harmonic(freqs, materials, ear_materials, damping, masses).outputs()
+    t1 = time.perf_counter()
+    red = rom.outputs(freqs, damping)
+    names = ("umbo_m", "stapes_m", "alpha_rad", "beta_rad")[: 4 if rom.has_joint else 2]
+    mag = np.abs(np.abs(red) / np.abs(direct) - 1)[:, : len(names)]
+    ph = np.abs(np.degrees(np.angle(red / direct)))[:, : len(names)]
+    ok = (mag <= tolerance[0]) & (ph <= tolerance[1])
+    checks = []
+    for i, f in enumerate(freqs):
+        row = {"freq_hz": float(f)}
+        for j, k in enumerate(names):
+            row[f"direct_{k}"] = [float(direct[i, j].real), float(direct[i, j].imag)]
+            row[f"reduced_{k}"] = [float(red[i, j].real), float(red[i, j].imag)]
+            row[f"{k}_mag_rel_error"], row[f"{k}_phase_error_deg"] = float(mag[i, j]), float(ph[i, j])
+        checks.append(row | {"passed": bool(ok[i].all())})
+    return {
+        "checks": checks,
+        "max_mag_rel_error": float(mag.max()),
+        "max_phase_error_deg": float(ph.max()),
+        "tolerance": {"mag_rel": tolerance[0], "phase_deg": tolerance[1]},
+        "passed": bool(ok.all()),
+        "direct_seconds": t1 - t0,
+        "direct_seconds_per_frequency": (t1 - t0) / freqs.size,
+    }
+
+
+def agreement_limit_hz(freq_hz, a, b, tol_db: float = 1.0) -> tuple[float | None, np.ndarray]:
+    """Up to which frequency two responses agree within ``tol_db`` in magnitude.
+
+    Returns (f, diff): f the highest frequency (Hz) below which every point of the ascending
+    ``freq_hz`` agrees (None if the first does not), diff = 20 log10 |a/b| (dB) at each point.
+    """
+    f = np.asarray(freq_hz, float)
+    diff = 20 * np.log10(np.abs(np.asarray(a)) / np.abs(np.asarray(b)))
+    bad = np.flatnonzero(~(np.abs(diff) <= tol_db))
+    if bad.size == 0:
+        return float(f[-1]), diff
+    return (float(f[bad[0] - 1]) if bad[0] > 0 else None), diff
+
+
+def drum_mesh_convergence(joint, freq_hz, drum_mesh_sizes_m=(0.25e-3, 0.125e-3), damping=None,
+                          tol_db: float = 1.0, **reduce_kw) -> dict:  # fmt: skip
+    """H_V on two eardrum meshes (the joint model the same) and up to where they agree within ``tol_db``.
+
+    Returns
+    -------
+    dict: ``freq_hz``, ``h_v`` (one complex array per mesh size, m/s/Pa), ``diff_db`` (second
+    against first), ``agree_up_to_hz``, ``tol_db``, ``drum_mesh_sizes_m``, ``n_dofs`` and
+    ``seconds`` per mesh.
+    """
+    from .middle_ear import MiddleEarModel
+
+    freqs = check_frequencies(freq_hz)
+    h, n_dofs, secs = [], [], []
+    for size in drum_mesh_sizes_m:
+        t0 = time.perf_counter()
+        model = MiddleEarModel(joint=joint, drum_mesh_size_m=size)
+        rom = reduced_ear(model, fmax_hz=float(freqs.max()), **reduce_kw)
+        h.append(rom.response(freqs, damping)["stapes_velocity_m_s"])
+        n_dofs.append(model.n_dofs)
+        secs.append(time.perf_counter() - t0)
+        del model, rom
+    f_ok, diff = agreement_limit_hz(freqs, h[1], h[0], tol_db)
+    return {"freq_hz": freqs, "h_v": h, "diff_db": diff, "agree_up_to_hz": f_ok, "tol_db": tol_db,
+            "drum_mesh_sizes_m": tuple(drum_mesh_sizes_m), "n_dofs": n_dofs, "seconds": secs}  # fmt: skip
