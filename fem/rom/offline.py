@@ -358,10 +358,14 @@ def run_greedy(
     validate: np.ndarray,
     tol: float,
     safety: float = 0.5,
+    margin: float = 0.8,
     max_steps: int = 80,
     progress=None,
 ) -> dict:
-    """Greedy to ``safety·tol`` on ``train``, then until every ``validate`` design is within ``tol``.
+    """Greedy to ``safety·tol`` on ``train``, then until every ``validate`` design is within ``margin·tol``.
+
+    The margin is for the designs no finite set holds: on the default mesh, validating at
+    ``tol`` itself left 1.07e-3 on β/α somewhere in a fresh sample of 1e6 designs.
 
     A validation design above ``tol`` joins the training set and the greedy goes on.
     Returns the history: per step the design added and the training set's worst relative bound.
@@ -383,7 +387,7 @@ def run_greedy(
             greedy.add_snapshot(train[worst])
             continue
         vrel, _ = relative_bounds(arr, greedy.space.theta(validate))
-        over = np.flatnonzero(vrel > tol)
+        over = np.flatnonzero(vrel > margin * tol)
         history[-1]["validate_max_rel_bound"] = float(vrel.max())
         if over.size == 0 or len(greedy.snapshots) >= max_steps:
             return {
