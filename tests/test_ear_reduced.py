@@ -160,3 +160,55 @@ def test_orthonormalize_keeps_the_span_and_drops_dependent_columns():
     # every column of X lies in the span of Q
     coef = np.linalg.lstsq(Q, X, rcond=None)[0]
     assert np.abs(Q @ coef - X).max() <= 1e-10 * np.abs(X).max()
+
+
+# --------------------------------------------------------------------------- isj ear sweep --fe
+
+
+def test_cli_fe_sweep_writes_its_files_and_checks_itself(capsys, tmp_path):
+    import json
+
+    from isj.cli import main
+
+    out = tmp_path / "fe"
+    argv = ["ear", "sweep", "--fe", "--resolution", "0.35", "--n", "12", "--fmax-hz", "12000"]
+    code = main([*argv, "--out", str(out), "--json"])
+    summary = json.loads(capsys.readouterr().out)
+    assert code == 0 and summary["passed"]
+    f = [ck["freq_hz"] for ck in summary["checks"]["checks"]]
+    assert len(f) >= 3 and max(f) > 10e3
+    assert summary["checks"]["max_mag_rel_error"] <= 0.01 and summary["checks"]["max_phase_error_deg"] <= 1.0
+    assert sorted(p.name for p in out.iterdir()) == [
+        "ear_bode.png",
+        "ear_sweep.csv",
+        "ear_sweep.json",
+        "ear_sweep.npz",
+    ]
+    units, header = (out / "ear_sweep.csv").read_text().splitlines()[:2]
+    assert units.startswith("# units:") and "stapes_velocity_m_s m/s" in units
+    assert "stapes_velocity_m_s_abs" in header.split(",")
+    data = np.load(out / "ear_sweep.npz")
+    assert data["response_per_pa"].shape == (12, len(OUTPUTS)) and list(data["units"]) == list(UNITS)
+    assert json.loads((out / "ear_sweep.json").read_text())["results"]["passed"] is True
+
+
+def test_cli_fe_sweep_exits_1_when_a_check_fails(capsys, tmp_path, monkeypatch):
+    from isj.fem.ear import ear_sweep
+
+    from isj.cli import main
+
+    monkeypatch.setattr(ear_sweep, "CHECK_TOLERANCE", (1e-14, 1e-12))  # no reduced model is that exact
+    argv = [
+        "ear",
+        "sweep",
+        "--fe",
+        "--rigid-joint",
+        "--n",
+        "5",
+        "--fmax-hz",
+        "12000",
+        "--out",
+        str(tmp_path / "x"),
+    ]
+    assert main(argv) == 1
+    assert "differs from a direct FE solve" in capsys.readouterr().err
