@@ -464,19 +464,19 @@ def agreement_limit_hz(freq_hz, a, b, tol_db: float = 1.0) -> tuple[float | None
 
 
 def drum_mesh_convergence(joint, freq_hz, drum_mesh_sizes_m=(0.25e-3, 0.125e-3), damping=None,
-                          tol_db: float = 1.0, **reduce_kw) -> dict:  # fmt: skip
+                          tol_db: float = 1.0, check_hz=(), **reduce_kw) -> dict:  # fmt: skip
     """H_V on two eardrum meshes (the joint model the same) and up to where they agree within ``tol_db``.
 
     Returns
     -------
     dict: ``freq_hz``, ``h_v`` (one complex array per mesh size, m/s/Pa), ``diff_db`` (second
     against first), ``agree_up_to_hz``, ``tol_db``, ``drum_mesh_sizes_m``, ``n_dofs`` and
-    ``seconds`` per mesh.
+    ``seconds`` per mesh; with ``check_hz``, ``checks``: :func:`check_against_direct` per mesh.
     """
     from .middle_ear import MiddleEarModel
 
     freqs = check_frequencies(freq_hz)
-    h, n_dofs, secs = [], [], []
+    h, n_dofs, secs, checks = [], [], [], []
     for size in drum_mesh_sizes_m:
         t0 = time.perf_counter()
         model = MiddleEarModel(joint=joint, drum_mesh_size_m=size)
@@ -484,7 +484,10 @@ def drum_mesh_convergence(joint, freq_hz, drum_mesh_sizes_m=(0.25e-3, 0.125e-3),
         h.append(rom.response(freqs, damping)["stapes_velocity_m_s"])
         n_dofs.append(model.n_dofs)
         secs.append(time.perf_counter() - t0)
+        if len(check_hz):  # each mesh's reduced model against its own direct solves
+            checks.append(check_against_direct(model, rom, check_hz, damping))
         del model, rom
     f_ok, diff = agreement_limit_hz(freqs, h[1], h[0], tol_db)
     return {"freq_hz": freqs, "h_v": h, "diff_db": diff, "agree_up_to_hz": f_ok, "tol_db": tol_db,
-            "drum_mesh_sizes_m": tuple(drum_mesh_sizes_m), "n_dofs": n_dofs, "seconds": secs}  # fmt: skip
+            "drum_mesh_sizes_m": tuple(drum_mesh_sizes_m), "n_dofs": n_dofs, "seconds": secs,
+            "checks": checks}  # fmt: skip
