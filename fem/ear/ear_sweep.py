@@ -1,4 +1,4 @@
-"""The FE whole ear over the audio band through a reduced model (docs/dynamics.md §5).
+"""The FE whole ear over the audio band through a reduced model (docs/ear.md §5.14).
 
 Two real reductions, both measured against full harmonic solves (benchmarks/ear_sweep_fe.py):
 
@@ -17,6 +17,10 @@ proportional, and free modes miss both. Keeping the dofs they act on and reducin
 whose damping is one loss factor each removes that error; the fixed-interface modes up to 30 kHz
 with the first two inertia corrections reached 1e-5 but cost a 4440-dof dense eigenproblem
 (30–40 s), the Krylov basis (20 shifts, two moments) reached 1e-6 in 2–6 s.
+
+On the default mesh (117 543 dofs) the reduction takes 33–38 s and leaves 619 coordinates, a
+frequency 6–10 ms (a direct solve 4.5–13 s on the same shared cores), and the largest error
+against direct solves at 100 Hz, 1.4 kHz and 20 kHz is 4.7e-5 in magnitude and 0.01° in phase.
 
 The reduced parts are projected once; any damping (a dictionary of η, a, b per part, the
 cochlear impedance, :class:`isj.damping.Damping`) is then a sum of projected parts and one
