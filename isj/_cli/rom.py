@@ -29,9 +29,12 @@ def register(sub) -> None:
     p = rsub.add_parser("cases", help="the seven thesis cases through the surrogate, with bounds")
     c.nu_option(p)
     p.add_argument(
-        "--incus-e", metavar="PA", type=c.modulus_option("--incus-e"), default=12e9,
+        "--incus-e",
+        metavar="PA",
+        type=c.modulus_option("--incus-e"),
+        default=12e9,
         help="Young's modulus of the incus (Pa; default 12e9): fixed per surrogate",
-    )  # fmt: skip
+    )
     c.pressure_option(p, "the incus")
     _mesh_options(p)
     c.add_json_option(p, "a JSON list")
@@ -46,15 +49,20 @@ def _mesh_options(p) -> None:
 def _surrogate_options(p) -> None:
     c.nu_option(p)
     p.add_argument(
-        "--incus-e", metavar="PA", type=c.modulus_option("--incus-e"), default=12e9,
+        "--incus-e",
+        metavar="PA",
+        type=c.modulus_option("--incus-e"),
+        default=12e9,
         help="Young's modulus of the incus (Pa; default 12e9): fixed per surrogate",
-    )  # fmt: skip
+    )
     _mesh_options(p)
     p.add_argument(
-        "--tol", type=c.float_option("--tol", 1e-6, 0.5, lo_open=False, hi_open=False), default=1e-3,
+        "--tol",
+        type=c.float_option("--tol", 1e-6, 0.5, lo_open=False, hi_open=False),
+        default=1e-3,
         help="largest relative bound on alpha, beta and beta/alpha over the domain, in [1e-6, 0.5] "
         "(default 1e-3)",
-    )  # fmt: skip
+    )
 
 
 def _space(args):
