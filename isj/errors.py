@@ -19,6 +19,7 @@ __all__ = [
     "UsageError",
     "ConfigError",
     "MeshError",
+    "InvalidMesh",
     "SolverUnavailable",
     "PointOutsideBody",
     "CorruptCalibration",
@@ -59,6 +60,11 @@ class PointOutsideBody(IsjError, ValueError):
 
 class CorruptCalibration(IsjError, ValueError):
     """A calibration file is missing, unreadable or inconsistent."""
+
+
+class InvalidMesh(IsjError, ValueError):
+    """A user's mesh file is unreadable, lacks a named group, or is no valid model mesh
+    (an inverted element, a region touching nothing, a non-conforming interface, too large)."""
 
 
 # -- failures while computing -------------------------------------------------

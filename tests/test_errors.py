@@ -14,6 +14,7 @@ ERRORS = {
     "ConfigError": ValueError,
     "PointOutsideBody": ValueError,
     "CorruptCalibration": ValueError,
+    "InvalidMesh": ValueError,
     "MeshError": RuntimeError,
     "SolverUnavailable": RuntimeError,
     "FitFailed": RuntimeError,
