@@ -1,4 +1,4 @@
-"""The lumped model over a grid or a sample of many designs, guarded by FE spot checks.
+"""The lumped model over a grid or a sample of many designs, guarded by the surrogate and FE.
 
 An exploration space is a :class:`~isj.calibration.doe.DesignSpace` with the
 incus modulus added (``isj explore`` lets every region's modulus range); a
@@ -6,7 +6,10 @@ pinned modulus has low == high. Designs come from the unit cube through
 :meth:`DesignSpace.columns_from_unit`, the same log-uniform map as every
 calibration sample, as one array per modulus so that millions of designs stay
 cheap. The spot checks go through :func:`isj.calibration.checks.compare_static`
-with the FE evaluator the caller passes in.
+with the FE evaluator the caller passes in. Given the certified surrogate of the FE model
+(:func:`isj.calibration.guard.load_surrogate`), :func:`explore` guards every design with it
+(:mod:`isj.calibration.guard`) and spends the FE spot checks on the designs with the largest
+certified lumped error, where FE also confirms the surrogate's bound.
 """
 
 from __future__ import annotations
@@ -14,16 +17,17 @@ from __future__ import annotations
 import os
 import time
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from isj.lumped.model import StaticResponse
 
-from isj.design import DEFAULT_PRESSURE_PA, Materials
+from isj.design import DEFAULT_PRESSURE_PA, Geometry, Materials
 from isj.errors import InvalidParameter
 
 from .checks import StaticComparison, compare_static, lumped_static, warn_fe_settings, warn_outside_domain
 from .doe import Bounds, DesignSpace, _engine
+from .guard import DEFAULT_DENSE, DEFAULT_TOLERANCE, Guard, confirmations, run_guard, worst_picks
 
 #: Most designs one exploration evaluates: about 6 arrays of 8 bytes each per design, ~2.4 GB.
 MAX_DESIGNS = 50_000_000
@@ -145,9 +149,15 @@ class Exploration:
     outside_domain : int
         Designs outside the calibrated domain (the largest count over the moduli).
     picks : list of int
-        Indices of the spot-checked designs.
+        Indices of the spot-checked designs, in their set (:attr:`pick_sets`).
     checks : StaticComparison
         FE and lumped at the picks.
+    guard : isj.calibration.guard.Guard or None
+        The surrogate's guard (None: explored without a surrogate).
+    pick_sets : list of str
+        The set of each pick: ``explored``, or with a guard also ``corners`` or ``dense``.
+    confirmations : list of dict
+        FE against the surrogate at the picks (:func:`isj.calibration.guard.confirmations`).
     """
 
     designs: dict[str, np.ndarray]
@@ -156,6 +166,9 @@ class Exploration:
     outside_domain: int
     picks: list[int]
     checks: StaticComparison
+    guard: Guard | None = None
+    pick_sets: list[str] = field(default_factory=list)
+    confirmations: list[dict] = field(default_factory=list)
 
     @property
     def n_designs(self) -> int:
@@ -172,6 +185,9 @@ def explore(
     *,
     seed: int = 0,
     progress: bool = True,
+    surrogate=None,
+    tolerance: float = DEFAULT_TOLERANCE,
+    n_dense: int = DEFAULT_DENSE,
 ) -> Exploration:
     """The lumped model over ``designs`` and FE spot checks of ``spot_checks`` of them.
 
@@ -197,22 +213,41 @@ def explore(
         Seed of the random picks.
     progress : bool
         Progress bar of the FE runs.
+    surrogate : isj.fem.rom.ReducedModel, optional
+        The certified surrogate of the FE model on the spot checks' mesh: with it, every design,
+        the corners of the calibrated domain and ``n_dense`` Sobol designs of it are guarded
+        (:func:`isj.calibration.guard.run_guard`, ``tolerance``), and the spot checks go to the
+        designs of largest certified lumped error instead of :func:`spot_check_picks`.
     """
     n_out = warn_outside_domain(calibration, designs)
     pressure = settings.get("pressure_pa", DEFAULT_PRESSURE_PA)
     t0 = time.perf_counter()
     lum = lumped_static(calibration, designs, None, pressure)
     t_lumped = time.perf_counter() - t0
-    picks = spot_check_picks(designs, spot_checks, seed)
-    if picks:
+    guard = None
+    if surrogate is not None:
+        geometry = Geometry(**settings["geometry"]) if settings.get("geometry") else None
+        guard = run_guard(
+            calibration, surrogate, designs, tolerance=tolerance, n_dense=n_dense, seed=seed,
+            pressure_pa=pressure, geometry=geometry,
+        )  # fmt: skip
+        pairs = worst_picks(guard, spot_checks)
+        fe_designs = [guard.sets[name].design(i) for name, i in pairs]
+    else:
+        pairs = [("explored", i) for i in spot_check_picks(designs, spot_checks, seed)]
+        fe_designs = [{k: float(v[i]) for k, v in designs.items()} for _, i in pairs]
+    if pairs:
         warn_fe_settings(calibration, settings.get("order"), settings.get("resolution"))
-    fe_designs = [{k: float(v[i]) for k, v in designs.items()} for i in picks]
     checks = compare_static(calibration, fe_designs, evaluate, settings, cache_dir, progress=progress)
+    confirmed = confirmations(guard, pairs, checks, tolerance) if guard is not None else []
     return Exploration(
         designs=dict(designs),
         lumped=lum,
         lumped_time_s=t_lumped,
         outside_domain=n_out,
-        picks=picks,
+        picks=[i for _, i in pairs],
         checks=checks,
+        guard=guard,
+        pick_sets=[name for name, _ in pairs],
+        confirmations=confirmed,
     )

@@ -115,6 +115,7 @@ def test_explore_spot_checks_guard(small_calibration, tmp_path, capsys):
         "4",
         "--spot-checks",
         "2",
+        "--no-guard",  # the FE spot checks alone (the surrogate's guard: tests/test_explore_guard.py)
         "--json",
     ]
     assert main(base + ["--tolerance", "0.05"]) == 0

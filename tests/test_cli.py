@@ -207,11 +207,12 @@ def test_explore_grid_without_spot_checks(capsys):
     code, out, err = run(
         capsys,
         ["explore", "--gap-e", "2e6:4e7", "--capsule-e", "2e7:2e8", "--n", "4", "--spot-checks", "0"]
-        + ["--json"],
+        + ["--no-guard", "--json"],  # the guard: tests/test_explore_guard.py
     )
     assert code == 0 and err == ""
     d = json.loads(out)
     assert d["n_designs"] == 16 and d["spot_checks"] == [] and d["passed"] and d["outside_domain"] == 0
+    assert d["guard"] == {"available": False, "reason": "--no-guard"}
     assert 0 < d["alpha_rad_range"][0] < d["alpha_rad_range"][1]
     # a stiffer gap and capsule turn the joint less: the softest corner gives the largest alpha
     code, out, _ = run(capsys, ["lumped", "solve", "--json", "--gap-e", "2e6", "--capsule-e", "2e7"])

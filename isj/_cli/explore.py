@@ -1,16 +1,38 @@
-"""``isj explore``: the lumped model over a grid or a sample, guarded by FE spot checks."""
+"""``isj explore``: the lumped model over a grid or a sample, guarded by the surrogate and FE checks."""
 
 from __future__ import annotations
+
+import itertools
+import sys
 
 from isj.design import Materials
 from isj.errors import UsageError
 
 from . import _common as c
 
+#: Files ``--out`` holds besides the maps.
+OUT_FILES = ("designs.csv", "designs.npz", "guard.json", "config.json")
+
+#: Most designs ``--out`` writes (one CSV row each: about 400 bytes).
+MAX_OUT_DESIGNS = 1_000_000
+
+
+def map_name(a: str, b: str) -> str:
+    """The map of β/α over moduli ``a`` and ``b`` (``pedicle_e_pa``, ...): ``map_pedicle_gap.png``."""
+    return f"map_{a.removesuffix('_e_pa')}_{b.removesuffix('_e_pa')}.png"
+
+
+def out_entries() -> frozenset[str]:
+    """Everything ``--out`` may hold: the files and every possible map."""
+    names = [f"{r}_e_pa" for r in c.MODULUS_OPTIONS]
+    return frozenset(OUT_FILES) | {map_name(a, b) for a, b in itertools.combinations(names, 2)}
+
 
 def register(sub) -> None:
     """Add ``isj explore`` to the top-level subparsers ``sub``."""
-    p = sub.add_parser("explore", help="lumped model over many designs, guarded by FE spot checks")
+    from isj.calibration.guard import DEFAULT_DENSE, MAX_DENSE
+
+    p = sub.add_parser("explore", help="lumped model over many designs, guarded by the surrogate and FE")
     d = Materials()
     for r in c.MODULUS_OPTIONS:
         p.add_argument(
@@ -24,31 +46,69 @@ def register(sub) -> None:
     c.pressure_option(p)
     p.add_argument("--n", type=int, default=5, help="grid points per ranged modulus (default 5)")
     p.add_argument("--sample", type=int, help="instead of a grid: N Latin-hypercube designs")
-    c.seed_option(p, "--sample and the spot checks")
+    c.seed_option(p, "--sample, the guard's dense sample and the unguarded spot checks")
     p.add_argument("--spot-checks", type=int, default=4, help="FE spot checks K (default 4)")
     p.add_argument(
         "--tolerance",
         type=c.float_option("--tolerance", lo=0.0),
         default=0.03,
-        help="largest relative error of a spot check (default 0.03)",
+        help="largest relative error of the lumped model, against FE in a spot check and "
+        "(certified) against the surrogate in the guard (default 0.03)",
+    )
+    p.add_argument(
+        "--no-guard", action="store_true", help="no surrogate: FE spot checks only, at the extreme corners"
+    )
+    p.add_argument(
+        "--guard-sample",
+        metavar="N",
+        type=c.int_option("--guard-sample", 0, MAX_DENSE),
+        default=DEFAULT_DENSE,
+        help=f"Sobol designs of the calibrated domain the guard checks, in [0, {MAX_DENSE}] "
+        f"(default {DEFAULT_DENSE})",
+    )
+    p.add_argument(
+        "--out",
+        metavar="DIR",
+        help="write designs.csv, designs.npz, guard.json, config.json and the beta/alpha maps here "
+        f"(replaced as a whole; at most {MAX_OUT_DESIGNS:.0e} designs)",
     )
     c.add_calibration_option(p)
     c.add_cache_option(p)
-    p.add_argument("--order", type=int, choices=(1, 2), default=2, help="FE order of the spot checks")
+    p.add_argument(
+        "--order", type=int, choices=(1, 2), default=2, help="FE order of the surrogate and spot checks"
+    )
     lo, hi = c.RESOLUTION_RANGE
     p.add_argument(
         "--resolution",
         metavar="R",
         type=c.resolution_option("--resolution"),
         default=1.0,
-        help=f"FE mesh refinement of the spot checks, in [{lo:g}, {hi:g}] (default 1)",
+        help=f"FE mesh refinement of the surrogate and spot checks, in [{lo:g}, {hi:g}] (default 1)",
     )
     c.add_json_option(p)
     p.set_defaults(func=explore)
 
 
+def _surrogate(args):
+    """(rom, None) or (None, why); a first build of the mesh's surrogate says so on stderr."""
+    from isj.calibration.guard import load_surrogate
+
+    told = []
+
+    def progress(step):
+        if not told:
+            told.append(True)
+            print(
+                f"isj: building the surrogate of the P{args.order} mesh at resolution {args.resolution:g} "
+                "(once per mesh; minutes; then cached)",
+                file=sys.stderr,
+            )
+
+    lo, hi = args.incus_e
+    return load_surrogate(args.order, args.resolution, None, lo if lo == hi else None, progress)
+
+
 def explore(args) -> int:
-    import numpy as np
 
     from isj.calibration.explore import MAX_DESIGNS, ExploreSpace, count_designs, explore_designs
     from isj.calibration.explore import explore as run
@@ -59,22 +119,33 @@ def explore(args) -> int:
     cal = c.load_calibration(args.calibration)
     if args.n < 1 or (args.sample is not None and args.sample < 1) or args.spot_checks < 0:
         raise UsageError("--n, --sample: must be >= 1; --spot-checks: must be >= 0")
-    if args.spot_checks:
+    guarded = not args.no_guard
+    out = c.check_out_dir(args.out, "--out", out_entries()) if args.out is not None else None
+    if args.spot_checks or guarded:
         c.check_model_size(None, args.order, args.resolution)
     space = ExploreSpace(**{f"{r}_e_pa": getattr(args, f"{r}_e") for r in c.MODULUS_OPTIONS})
     total = count_designs(space, args.n, args.sample)  # before anything of that size is allocated
+    flag = f"--sample = {args.sample}" if args.sample is not None else f"--n = {args.n}"
     if total > MAX_DESIGNS:
-        flag = f"--sample = {args.sample}" if args.sample is not None else f"--n = {args.n}"
         raise UsageError(f"{flag}: {total:.3g} designs is too many (at most {MAX_DESIGNS:.0e})")
+    if out is not None and total > MAX_OUT_DESIGNS:
+        raise UsageError(
+            f"{flag}: {total:.3g} designs is too many to write with --out (at most {MAX_OUT_DESIGNS:.0e})"
+        )
     designs = explore_designs(space, args.n, args.sample, args.seed)
     settings = fe_settings(order=args.order, resolution=args.resolution, pressure_pa=args.pressure)
+    rom, why = _surrogate(args) if guarded else (None, "--no-guard")
+    if rom is None and guarded:
+        print(f"isj: warning: {why}; the lumped model is NOT guarded (FE spot checks only)", file=sys.stderr)
     ex = run(cal, designs, args.spot_checks, evaluate_design, settings, fe_cache_dir(args.cache),
-             seed=args.seed, progress=not args.json)  # fmt: skip
+             seed=args.seed, progress=not args.json, surrogate=rom, tolerance=args.tolerance,
+             n_dense=args.guard_sample)  # fmt: skip
     lum, comp = ex.lumped, ex.checks
     passed = comp.passed(args.tolerance)
     ea, eb = comp.rel_error("alpha_rad"), comp.rel_error("beta_rad")
     checks = [
         {
+            "set": ex.pick_sets[i],
             "design": comp.designs[i],
             "fe_alpha_rad": comp.fe_results[i]["alpha_rad"],
             "fe_beta_rad": comp.fe_results[i]["beta_rad"],
@@ -86,7 +157,11 @@ def explore(args) -> int:
         }
         for i in range(comp.n)
     ]
-    n_failed = int(np.count_nonzero(~passed))
+    # what fails the run: an explored design's spot check or guard, or FE outside the surrogate's bound
+    n_failed = sum(not ck["passed"] for ck in checks if ck["set"] == "explored")
+    g = ex.guard.summary(ex.confirmations) if ex.guard is not None else {"available": False, "reason": why}
+    n_guard_failed = g["explored"]["n_fail"] if ex.guard is not None else 0
+    n_unconfirmed = sum(not r["confirmed"] for r in ex.confirmations)
     summary = {
         "n_designs": ex.n_designs,
         "lumped_time_s": ex.lumped_time_s,
@@ -96,24 +171,190 @@ def explore(args) -> int:
         "tolerance": args.tolerance,
         "spot_checks": checks,
         "max_spot_error": comp.max_abs_error(),
-        "passed": not n_failed,
+        "guard": g,
+        "passed": not (n_failed or n_guard_failed or n_unconfirmed),
     }
     c.check_finite(summary, f"--pressure {args.pressure:g}")
+    if out is not None:
+        write_outputs(out, args, ex, space, g, summary)
     if args.json:
         c.print_json(summary)
     else:
-        u = c.urad
-        print(
-            f"lumped model: {ex.n_designs} designs in {ex.lumped_time_s * 1e3:.2f} ms; alpha "
-            f"{u(lum.alpha_rad.min())} .. {u(lum.alpha_rad.max())} urad, beta {u(lum.beta_rad.min())} .. "
-            f"{u(lum.beta_rad.max())} urad"
-        )
-        for ck in checks:
-            print(
-                f"  FE spot check: alpha {100 * ck['alpha_rel_error']:+6.2f} %, beta "
-                f"{100 * ck['beta_rel_error']:+6.2f} % {'ok' if ck['passed'] else 'EXCEEDS tolerance'}"
-            )
-        print(f"{len(checks) - n_failed}/{len(checks)} spot checks within {100 * args.tolerance:g} %")
-    if n_failed:
-        return c.fail(f"{n_failed} FE spot check(s) exceed the tolerance {args.tolerance:g}")
+        _print(args, ex, checks, g)
+    if n_failed or n_guard_failed or n_unconfirmed:
+        parts = [
+            f"{n_failed} FE spot check(s) of explored designs exceed the tolerance {args.tolerance:g}"
+            * bool(n_failed),
+            f"{n_guard_failed} explored design(s) fail the guard" * bool(n_guard_failed),
+            f"FE lies outside the surrogate's bound at {n_unconfirmed} design(s)" * bool(n_unconfirmed),
+        ]
+        return c.fail("; ".join(p for p in parts if p))
     return 0
+
+
+def _pct(x) -> str:
+    return "n/a" if x is None else f"{100 * x:.2f} %"
+
+
+def _print(args, ex, checks, g) -> None:
+    lum, u = ex.lumped, c.urad
+    print(
+        f"lumped model: {ex.n_designs} designs in {ex.lumped_time_s * 1e3:.2f} ms; alpha "
+        f"{u(lum.alpha_rad.min())} .. {u(lum.alpha_rad.max())} urad, beta {u(lum.beta_rad.min())} .. "
+        f"{u(lum.beta_rad.max())} urad"
+    )
+    if g["available"]:
+        s = g["surrogate"]
+        print(
+            f"guard (surrogate of the P{s.get('order')} mesh, {s.get('n_dofs')} dofs; certified error "
+            f"of alpha, beta, beta/alpha within {100 * args.tolerance:g} %) in {g['time_s']:.2f} s:"
+        )
+        for name in ("explored", "corners", "dense"):
+            r = g[name]
+            w = r["worst"]
+            where = ""
+            if w and "pedicle_e_pa" in w:
+                where = " at " + ", ".join(
+                    f"{k.removesuffix('_e_pa')} {w[k]:.3g}" for k in w if k.endswith("_e_pa")
+                )
+            print(
+                f"  {name:8}: {r['n_ok']}/{r['n']} ok, {r['n_fail']} fail, {r['n_outside']} outside; "
+                f"worst {_pct(r['max_certified_error'])}{where}"
+            )
+        conf = g["fe_confirmations"]
+        if conf:
+            print(
+                f"  FE confirms the surrogate's bound at {sum(r['confirmed'] for r in conf)}/{len(conf)} "
+                "worst designs"
+            )
+    for ck in checks:
+        print(
+            f"  FE spot check ({ck['set']}): alpha {100 * ck['alpha_rel_error']:+6.2f} %, beta "
+            f"{100 * ck['beta_rel_error']:+6.2f} % {'ok' if ck['passed'] else 'EXCEEDS tolerance'}"
+        )
+    n_ok = sum(ck["passed"] for ck in checks)
+    print(f"{n_ok}/{len(checks)} spot checks within {100 * args.tolerance:g} %")
+
+
+# ---- --out -----------------------------------------------------------------------------------------
+
+
+def columns() -> list[str]:
+    """Columns of designs.csv after the moduli, in order; units in :data:`UNITS`."""
+    from isj.calibration.guard import GUARDED, short
+
+    out = [f"lumped_{k}" for k in GUARDED]
+    for k, kb in GUARDED.items():
+        out += [f"surrogate_{k}", f"surrogate_{kb}"]
+    out += [f"{short(k)}_rel_error" for k in GUARDED] + [f"{short(k)}_certified_error" for k in GUARDED]
+    return out + ["max_certified_error", "verdict"]
+
+
+UNITS = (
+    "*_e_pa Pa; *_rad rad; beta_over_alpha and its bound dimensionless; "
+    "*_rel_error = lumped / surrogate - 1, "
+    "*_certified_error = max |lumped / FE - 1| allowed by the surrogate's bound, both relative; "
+    "verdict ok|fail|outside|unguarded"
+)
+
+
+def design_table(ex) -> dict:
+    """designs.csv's columns: name → (n,) array (verdict: strings); NaN where the surrogate has none."""
+    import numpy as np
+
+    from isj.calibration.guard import short
+    from isj.lumped.model import MODULI
+
+    n = ex.n_designs
+    if ex.guard is not None:
+        s = ex.guard.sets["explored"]
+        cols = {k: s.designs[k] for k in MODULI} | {f"lumped_{k}": v for k, v in s.lumped.items()}
+        cols |= {f"surrogate_{k}": v for k, v in s.surrogate.items()}
+        cols |= {f"{short(k)}_rel_error": v for k, v in s.error.items()}
+        cols |= {f"{short(k)}_certified_error": v for k, v in s.certified.items()}
+        cols |= {"max_certified_error": s.max_certified, "verdict": s.verdict}
+    else:
+        a, b = np.asarray(ex.lumped.alpha_rad, float), np.asarray(ex.lumped.beta_rad, float)
+        m = Materials()
+        cols = {k: np.broadcast_to(ex.designs.get(k, getattr(m, k)), (n,)) for k in MODULI}
+        cols |= {"lumped_alpha_rad": a, "lumped_beta_rad": b, "lumped_beta_over_alpha": b / a}
+        cols |= {k: np.full(n, np.nan) for k in columns() if k not in cols}
+        cols["verdict"] = np.full(n, "unguarded")
+    return {k: np.asarray(cols[k]) for k in [*MODULI, *columns()]}
+
+
+def write_csv(path, table: dict, units: str) -> None:
+    import numpy as np
+
+    from ..atomic import atomic_write_text
+
+    text = [
+        np.asarray(v) if v.dtype.kind == "U" else np.char.mod("%.17g", np.asarray(v, dtype=float))
+        for v in table.values()
+    ]
+    rows = "\n".join(",".join(r) for r in zip(*text, strict=True))
+    atomic_write_text(path, f"# units: {units}\n{','.join(table)}\n{rows}\n")
+
+
+def write_maps(out, args, ex, space, table) -> list[str]:
+    """One PNG per pair of ranged moduli: lumped β/α (grid: a slice through the middle of the others)."""
+    import numpy as np
+    from matplotlib.figure import Figure
+
+    from ..atomic import atomic_write
+
+    ranged = list(space.ranged)
+    ratio = table["lumped_beta_over_alpha"]
+    fail = table["verdict"] == "fail"
+    grid = args.sample is None
+    written = []
+    for a, b in itertools.combinations(ranged, 2):
+        ia, ib = ranged.index(a), ranged.index(b)
+        fig = Figure(figsize=(5.5, 4.5))
+        ax = fig.subplots()
+        if grid:
+            shape = (args.n,) * len(ranged)
+            idx = [slice(None) if j in (ia, ib) else args.n // 2 for j in range(len(ranged))]
+            pick = np.arange(ex.n_designs).reshape(shape)[tuple(idx)]
+            x, y, z = (np.asarray(v)[pick] for v in (table[a], table[b], ratio))  # (n, n) with a before b
+            img = ax.pcolormesh(x, y, z, shading="nearest")
+            ff = fail[pick]
+            others = [k for k in ranged if k not in (a, b)]
+            note = "others at their middle grid value" if others else ""
+        else:
+            x, y, z, ff = table[a], table[b], ratio, fail
+            img = ax.scatter(x, y, c=z, s=6)
+            note = f"{ex.n_designs} sampled designs, all others projected"
+        if np.any(ff):
+            ax.plot(np.asarray(x)[ff], np.asarray(y)[ff], "rx", ms=5, label="guard: fail")
+            ax.legend(loc="best", fontsize=7)
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel(f"{a} (Pa)")
+        ax.set_ylabel(f"{b} (Pa)")
+        ax.set_title(f"lumped beta/alpha{'; ' + note if note else ''}", fontsize=8)
+        fig.colorbar(img, ax=ax, label="beta/alpha")
+        name = map_name(a, b)
+        atomic_write(out / name, lambda tmp, fig=fig: fig.savefig(tmp, dpi=110, format="png"))
+        written.append(name)
+    return written
+
+
+def write_outputs(out, args, ex, space, guard: dict, summary: dict) -> None:
+    """designs.csv, designs.npz, the maps, guard.json and config.json, all at once (replace_dir)."""
+    import numpy as np
+
+    from ..atomic import atomic_write_json, replace_dir
+    from ..provenance import write_run_record
+    from ._output import write_npz
+
+    table = design_table(ex)
+    units = f"{UNITS}; pressure {args.pressure:g} Pa; tolerance {args.tolerance:g}"
+    with replace_dir(out) as staging:  # every file appears together or none does
+        write_csv(staging / "designs.csv", table, units)
+        write_npz(staging / "designs.npz", **table, units=np.array(units))
+        maps = write_maps(staging, args, ex, space, table)
+        atomic_write_json(staging / "guard.json", guard)
+        write_run_record(
+            staging / "config.json", args, summary | {"maps": maps, "files": [*OUT_FILES, *maps]}
+        )
