@@ -18,6 +18,22 @@ def register(sub) -> None:
     p = fsub.add_parser("solve", help="static solve of one design")
     c.add_design_options(p)
     c.add_mesh_options(p)
+    p.add_argument(
+        "--mesh",
+        metavar="FILE",
+        help="solve on your own mesh: a gmsh .msh or any volume mesh meshio reads, with groups named "
+        "after the six regions and the faces loaded and clamped (docs/model.md 2.11); not with "
+        "--geometry or --resolution",
+    )
+    p.add_argument(
+        "--mesh-unit", choices=("m", "mm", "um"), default="m", help="length unit of --mesh (default m)"
+    )
+    p.add_argument(
+        "--points",
+        metavar="FILE",
+        help="with --mesh: a TOML file of the point pairs and faces for alpha and beta (docs/model.md 2.11); "
+        "without it alpha and beta are the least-squares rotations of the bodies",
+    )
     p.add_argument("--vtu", metavar="PATH", help="write the deformed model for ParaView (.vtu)")
     c.add_json_option(p)
     p.set_defaults(func=solve)
@@ -42,6 +58,17 @@ def register(sub) -> None:
 
     p = fsub.add_parser("mesh", help="mesh quality and stiffness bandwidth (thesis 6.5)")
     c.add_mesh_options(p)
+    p.add_argument(
+        "--msh",
+        metavar="FILE",
+        help="also write the mesh as gmsh 2.2 (.msh) with physical groups named after the regions and "
+        "faces, the input of isj fem solve --mesh",
+    )
+    p.add_argument(
+        "--points-out",
+        metavar="FILE",
+        help="also write the built-in point pairs as an isj fem solve --points file (.toml)",
+    )
     c.add_json_option(p)
     p.set_defaults(func=mesh)
 
@@ -83,6 +110,30 @@ def _model(args, geometry):
     return PedicleJointModel(geometry, args.order, args.resolution, solver=args.solver)
 
 
+def _user_model(args):
+    """The model on ``--mesh`` (and ``--points``), every file checked before anything is built."""
+    from isj.errors import InvalidMesh
+    from isj.fem.user_mesh import read_mesh
+    from isj.fem.user_model import UserMeshModel, read_points
+
+    if args.geometry or args.resolution != 1.0:
+        raise UsageError("--geometry, --resolution: not with --mesh (the mesh file is the geometry)")
+    c.check_solver(args.solver)
+    try:
+        points = read_points(args.points) if args.points is not None else None
+    except InvalidMesh as exc:
+        raise UsageError(f"--points {exc}") from None
+    try:
+        t0 = time.perf_counter()
+        mesh = read_mesh(args.mesh, order=args.order, unit=args.mesh_unit)
+        t1 = time.perf_counter()
+        model = UserMeshModel(mesh, args.order, args.solver, points, f"--points {args.points}")
+    except InvalidMesh as exc:
+        raise UsageError(f"--mesh {exc}") from None
+    model.timings_s["read"] = t1 - t0
+    return model
+
+
 def solve(args) -> int:
     from isj.fem.export import write_model_vtu
 
@@ -90,6 +141,10 @@ def solve(args) -> int:
 
     vtu = c.check_out_path(args.vtu, "--vtu", ".vtu")
     materials = c.materials(args)
+    if args.mesh is not None:
+        return _solve_user_mesh(args, vtu, materials)
+    if args.points is not None:
+        raise UsageError("--points: only with --mesh FILE (the built-in model has its own points)")
     geometry = _checked_geometry(args)
     t0 = time.perf_counter()
     model = _model(args, geometry)
@@ -111,8 +166,49 @@ def solve(args) -> int:
     if args.json:
         c.print_json(out)
         return 0
-    u = c.urad
     print(f"P{args.order} mesh: {model.n_tets} tets, {model.n_dofs} dofs, solver {model.solver_name}")
+    _print_static(args, res, timings, vtu)
+    return 0
+
+
+def _solve_user_mesh(args, vtu, materials) -> int:
+    from isj.fem.export import write_model_vtu
+
+    from ..provenance import write_run_record
+
+    t0 = time.perf_counter()
+    model = _user_model(args)
+    res = model.solve(materials, args.pressure)
+    timings = dict(model.timings_s, total=time.perf_counter() - t0)
+    out = res.to_dict() | {
+        "angle_definition": model.angle_definition,
+        "mesh_file": str(args.mesh),
+        "points_file": None if args.points is None else str(args.points),
+        "n_tets": model.n_tets,
+        "n_dofs": model.n_dofs,
+        "order": args.order,
+        "resolution": None,
+        "solver": model.solver_name,
+        "mesh_hash": model.mesh.content_hash(),
+        "timings_s": timings,
+    }
+    c.check_finite(out, c.design_inputs(args))
+    if vtu is not None:
+        write_model_vtu(vtu, model, res)
+        write_run_record(vtu.with_suffix(".json"), args, out)
+    if args.json:
+        c.print_json(out)
+        return 0
+    print(
+        f"{args.mesh}: P{args.order}, {model.n_tets} tets, {model.n_dofs} dofs, solver {model.solver_name}; "
+        f"alpha and beta from {model.angle_definition}"
+    )
+    _print_static(args, res, timings, vtu)
+    return 0
+
+
+def _print_static(args, res, timings, vtu) -> None:
+    u = c.urad
     print(f"alpha      = {u(res.alpha_rad)} urad   (least squares {u(res.alpha_ls_rad)})")
     print(f"beta       = {u(res.beta_rad)} urad   (least squares {u(res.beta_ls_rad)})")
     print(f"alpha+beta = {u(res.sum_rad)} urad   beta/alpha = {res.ratio:.3f}")
@@ -122,7 +218,6 @@ def solve(args) -> int:
     print(f"time: {timings['total']:.2f} s")
     if vtu is not None:
         print(f"wrote {vtu}")
-    return 0
 
 
 def cases(args) -> int:
@@ -258,9 +353,19 @@ def modes(args) -> int:
 
 
 def mesh(args) -> int:
+    from isj.atomic import atomic_write_text
     from isj.fem.quality import mesh_quality, rcm_bandwidth
+    from isj.fem.user_mesh import write_mesh
+    from isj.fem.user_model import default_points, points_toml
 
-    model = _model(args, _checked_geometry(args))
+    msh = c.check_out_path(args.msh, "--msh", ".msh")
+    points_out = c.check_out_path(args.points_out, "--points-out", ".toml")
+    geometry = _checked_geometry(args)
+    model = _model(args, geometry)
+    if msh is not None:
+        write_mesh(model.mesh, msh)
+    if points_out is not None:
+        atomic_write_text(points_out, points_toml(default_points(geometry)))
     q = mesh_quality(model.mesh)
     K = model.stiffness(Materials(), reduced=False)
     before, after = rcm_bandwidth(K)
@@ -284,4 +389,7 @@ def mesh(args) -> int:
         f"worst aspect ratio {q['max_aspect_ratio']:.2f} (1 = regular)"
     )
     print(f"stiffness bandwidth {before} -> {after} after reverse Cuthill-McKee")
+    for written in (msh, points_out):
+        if written is not None:
+            print(f"wrote {written}")
     return 0
