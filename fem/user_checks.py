@@ -5,10 +5,10 @@ first problem found. Tetrahedra are numbered from 1 in the order the file lists
 them (all tetrahedra blocks, in file order).
 
 Conformity rests on two facts of a conforming tetrahedral mesh: no two
-distinct nodes coincide, and every edge of its boundary triangles bounds an
-even number of them (the boundary of a union of tetrahedra is closed). Two
-regions meshed separately fail the first where their nodes meet and the second
-where they do not (a hanging node, a face split on one side only).
+distinct nodes coincide, and its boundary triangles (faces of one tetrahedron
+only) lie on its outer surface, so none lies on another with the solid on both
+sides. Two regions meshed separately fail the first where their nodes meet and
+the second where they do not (a hanging node, a face split on one side only).
 """
 
 from __future__ import annotations
@@ -70,6 +70,47 @@ def check_geometry(path, points: np.ndarray, tets: np.ndarray, region: np.ndarra
         )
 
 
+def hanging_faces(path, points, tri, tet_of, region) -> None:
+    """Refuse boundary triangles lying inside another, facing it: a face split on one side only.
+
+    For each boundary triangle g, the boundary triangles whose centroids lie within g's
+    circumscribing ball are tested: coplanar with g (within 1e-6 of its size), facing the
+    other way, centroid inside g.
+    """
+    p = points[tri]  # (n, 3, 3)
+    c = p.mean(axis=1)
+    normal = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    area2 = np.linalg.norm(normal, axis=1)
+    unit = normal / area2[:, None]
+    radius = np.linalg.norm(p - c[:, None, :], axis=2).max(axis=1)
+    tree = cKDTree(c)
+    hits = tree.query_ball_point(c, radius * (1 + 1e-9))
+    g = np.repeat(np.arange(len(tri)), [len(h) for h in hits])
+    f = np.concatenate([np.asarray(h, dtype=np.int64) for h in hits]) if len(hits) else np.empty(0, int)
+    keep = f != g
+    g, f = g[keep], f[keep]
+    facing = np.einsum("ij,ij->i", unit[g], unit[f]) < -0.99
+    g, f = g[facing], f[facing]
+    d = c[f] - p[g, 0]
+    plane = np.abs(np.einsum("ij,ij->i", d, unit[g])) <= 1e-6 * radius[g]
+    g, f, d = g[plane], f[plane], d[plane]
+    # barycentric coordinates of f's centroid in g
+    e1, e2 = p[g, 1] - p[g, 0], p[g, 2] - p[g, 0]
+    n = normal[g]
+    l1 = np.einsum("ij,ij->i", np.cross(d, e2), n) / area2[g] ** 2
+    l2 = np.einsum("ij,ij->i", np.cross(e1, d), n) / area2[g] ** 2
+    inside = (l1 > 1e-9) & (l2 > 1e-9) & (l1 + l2 < 1 - 1e-9)
+    if inside.any():
+        k = int(np.flatnonzero(inside)[0])
+        a, b = REGIONS[region[tet_of[g[k]]]], REGIONS[region[tet_of[f[k]]]]
+        where = f"between regions {a} and {b}" if a != b else f"in region {a}"
+        raise InvalidMesh(
+            f"{path}: non-conforming interface {where} at {_fmt(c[f[k]])}: boundary faces lie on one "
+            f"another without sharing nodes ({int(inside.sum())} such pairs; a hanging node, or a face "
+            "split on one side only)"
+        )
+
+
 @dataclass(frozen=True)
 class Topology:
     """Faces of a checked mesh: unique sorted node triples, their tetrahedra and regions."""
@@ -121,26 +162,13 @@ def check_topology(path, points, tets, region, faces: dict[str, np.ndarray]) -> 
             f"region {REGIONS[region[t]]})"
         )
     # the two tets of each face (the same one twice on the boundary)
-    second = np.empty(len(keys), dtype=np.int64)
     order = np.argsort(inv, kind="stable")
     starts = np.concatenate([[0], np.cumsum(count)[:-1]])
     second = owner[order[starts + count - 1]]
     pair = np.column_stack([owner[first], second])
     regions = region[pair].astype(np.int64)
 
-    # boundary closed: each boundary edge bounds an even number of boundary triangles
-    btri = tf[first[count == 1]]
-    edges = np.sort(np.concatenate([btri[:, [0, 1]], btri[:, [1, 2]], btri[:, [0, 2]]]), axis=1)
-    ekey, ecount = np.unique(edges[:, 0] * n + edges[:, 1], return_counts=True)
-    odd = np.flatnonzero(ecount % 2)
-    if odd.size:
-        i, j = divmod(int(ekey[odd[0]]), n_nodes)
-        rs = sorted({REGIONS[r] for r in region[np.any(np.isin(tets, [i, j]), axis=1)]})
-        raise InvalidMesh(
-            f"{path}: non-conforming interface at {_fmt(0.5 * (points[i] + points[j]))} (region "
-            f"{', '.join(rs)}): the edge of nodes {i + 1}-{j + 1} bounds a single boundary triangle "
-            f"({odd.size} such edges; a hanging node, or faces that do not match node for node)"
-        )
+    hanging_faces(path, points, tf[first[count == 1]], owner[first[count == 1]], region)
 
     # each region bonded to another through a shared face, all of them to the clamped face
     inner = (count == 2) & (regions[:, 0] != regions[:, 1])

@@ -5,8 +5,8 @@ volume format meshio reads, with groups named after the six regions of
 :data:`isj.design.REGIONS` and the faces ``loaded`` and ``clamped``, plus an
 optional ``capsule_free`` interface (docs/model.md §2.11). Groups are gmsh
 physical groups (or meshio ``cell_sets``, or an integer cell datum with
-``field_data`` naming its values). Tetrahedra are ``tetra`` (4 nodes) or
-``tetra10``; of a ``tetra10`` only the corners are kept (straight-sided
+``field_data`` naming its values, or meshio's ``a-b-c`` integer cell datum).
+Tetrahedra are ``tetra`` (4 nodes) or ``tetra10``; of a ``tetra10`` only the corners are kept (straight-sided
 geometry, the P1/P2 space is then built from them as for the built-in mesh).
 The file must be conforming (neighbouring elements share their nodes); the
 ``capsule_free`` triangles are cut open here, as :func:`fem.mesh.mesh_pedicle_joint`
@@ -19,6 +19,8 @@ file reads back to the identical mesh).
 
 from __future__ import annotations
 
+import contextlib
+import io
 import os
 import re
 import warnings
@@ -130,12 +132,14 @@ def _read_meshio(path: Path):
 
     if not path.is_file():
         raise InvalidMesh(f"{path}: no such file")
+    said = io.StringIO()
     try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
+        with warnings.catch_warnings(), contextlib.redirect_stdout(said), contextlib.redirect_stderr(said):
+            warnings.simplefilter("ignore")  # meshio's notes on what it skips, and stray output
             return meshio.read(path)
-    except Exception as exc:  # meshio raises ReadError, KeyError, ValueError, ... on bad files
-        text = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
+    except (Exception, SystemExit) as exc:  # meshio raises ReadError, KeyError, ... or exits on bad files
+        lines = [*str(exc).strip().splitlines(), *" ".join(said.getvalue().split()).splitlines()]
+        text = next((t for t in lines if len(t) > 3), type(exc).__name__)
         raise InvalidMesh(f"{path}: meshio cannot read it ({text})") from None
 
 
@@ -158,6 +162,19 @@ def _groups(m) -> dict[str, dict[int, np.ndarray]]:
                 idx = np.flatnonzero(np.asarray(tags[b]).ravel() == int(value[0]))
                 if idx.size:
                     out.setdefault(name, {}).setdefault(b, []).append(idx)
+    for key, data in m.cell_data.items():  # meshio's cell_sets_to_data: key "a-b-c", value i names the i-th
+        names = key.split("-")
+        if (
+            len(names) > 1
+            and set(names) & set(REGIONS)
+            and all(np.asarray(d).dtype.kind in "iu" for d in data)
+        ):
+            for b, d in enumerate(data):
+                d = np.asarray(d).ravel()
+                for i, name in enumerate(names):
+                    idx = np.flatnonzero(d == i)
+                    if idx.size:
+                        out.setdefault(name, {}).setdefault(b, []).append(idx)
     return {n: {b: np.unique(np.concatenate(v)) for b, v in d.items()} for n, d in out.items()}
 
 
@@ -339,9 +356,12 @@ def write_mesh(mesh: TetMesh, path) -> Path:
     out = meshio.Mesh(
         points, cells, cell_data={"gmsh:physical": tags, "gmsh:geometrical": tags}, field_data=field_data
     )
-    return atomic_write(
-        path, lambda tmp: meshio.write(tmp, out, file_format="gmsh22", binary=False, float_fmt=".16e")
-    )
+
+    def write(tmp: str) -> None:
+        with contextlib.redirect_stdout(io.StringIO()):
+            meshio.write(tmp, out, file_format="gmsh22", binary=False, float_fmt=".16e")
+
+    return atomic_write(path, write)
 
 
 def group_names_in(path) -> list[str]:
