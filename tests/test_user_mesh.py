@@ -242,3 +242,37 @@ def test_mesh_options_refused(capsys, files, tmp_path):
     assert code == 2 and "--msh" in err and not (tmp_path / "x.vtk").exists()
     (tmp_path / "junk.msh").write_text("not a mesh\n")
     assert "meshio cannot read it" in refused(capsys, tmp_path / "junk.msh")
+
+
+def test_gmsh_41_tetra10_file_in_micrometres(capsys, tmp_path):
+    """What a user's gmsh script writes: format 4.1, second order, µm; α and β as built in."""
+    import gmsh
+    from isj.fem.geometry import build_pedicle_joint
+    from isj.fem.mesh import DEFAULT_GEOMETRY, _configure, _resolve
+    from isj.fem.user_model import default_points, points_toml
+
+    path = tmp_path / "own.msh"
+    gmsh.initialize(readConfigFiles=False, interruptible=False)
+    try:
+        _configure(gmsh)
+        gmsh.model.add("own")
+        build_pedicle_joint(DEFAULT_GEOMETRY, _resolve(None, 0.35))
+        gmsh.model.mesh.generate(3)
+        gmsh.model.mesh.setOrder(2)
+        gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
+        gmsh.write(str(path))
+    finally:
+        gmsh.finalize()
+    toml = tmp_path / "points.toml"
+    toml.write_text(points_toml(default_points()))
+    _, out, _ = run(capsys, ["fem", "solve", "--json", "--order", "1", *COARSE])
+    built_in = json.loads(out)
+    vtu = tmp_path / "own.vtu"
+    argv = ["fem", "solve", "--json", "--order", "1", "--mesh", str(path), "--mesh-unit", "um"]
+    code, out, err = run(capsys, [*argv, "--points", str(toml), "--vtu", str(vtu)])
+    assert code == 0, err
+    own = json.loads(out)
+    for key in ANGLES:
+        assert own[key] == pytest.approx(built_in[key], rel=1e-9)
+    assert meshio.read(vtu).cells[0].type == "tetra"
+    assert set(own["strain_energy_j"]) == set(REGIONS)
