@@ -309,6 +309,7 @@ class LumpedModel:
         rayleigh_b_s=None,
         loss_factor=None,
         damping=None,
+        drum_modes=None,
         **moduli,
     ) -> LumpedEar:
         """The lumped ear (:func:`isj.lumped.ear.ear_model`) with this calibration's joint.
@@ -322,6 +323,8 @@ class LumpedModel:
         rigid_joint : no joint and pedicle compliance (α = β = 0)
         damping : :class:`isj.damping.Damping` or a preset name (default: published loss factors)
         rayleigh_a_per_s, rayleigh_b_s, loss_factor : changes to it (1/s, s, dimensionless)
+        drum_modes : the drum's component modes past its first mode (an int: the lowest n of the
+            shipped ones; see :func:`isj.lumped.ear.ear_model`); None, the one-shape drum
         """
         return ear_model(
             self.factors,
@@ -336,6 +339,7 @@ class LumpedModel:
             rayleigh_b_s=rayleigh_b_s,
             loss_factor=loss_factor,
             damping=damping,
+            drum_modes=drum_modes,
             **self._moduli(materials, moduli),
         )
 

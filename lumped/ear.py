@@ -72,7 +72,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from isj.damping import Damping, resolve
-from isj.design import Geometry, InvalidParameter, Materials
+from isj.design import REGIONS, Geometry, InvalidParameter, Materials
 from isj.ear import EarGeometry, EarMasses, EarMaterials
 from isj.kinematics import grounded_springs, point_map, rigid_mass
 from isj.validate import check_frequencies
@@ -212,12 +212,16 @@ class LumpedEar:
     umbo_direction : (3,) or (n_design, 3) unit direction of the umbo's static motion
     drum_modes : the coordinates of the drum's fixed-interface modes (``drum_1`` …), condensed
         exactly at each frequency by :func:`lumped.ear_drum.freq_resp`; None without modes
+    joint : the condensed joint's own terms on (α, β), (K, E, K_loss), each (2, 2) or
+        (n_design, 2, 2), the rest of ``system`` being the ear around it (N·m/rad, N·m·s/rad);
+        None for the rigid joint (:func:`isj.lumped.transmission.load_path`)
     """
 
     system: SecondOrderModel
     coordinates: tuple[str, ...]
     umbo_direction: np.ndarray
     drum_modes: slice | None = None
+    joint: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
 
     def _freq_resp(self, freq_hz) -> np.ndarray:
         if self.drum_modes is None:
@@ -443,6 +447,11 @@ def ear_model(
             Kf[:, ia : ia + 2, ia : ia + 2] = Kr
             parts[r] = Kf
     E_visc, K_loss = damping_terms(dmp, parts, masses, dash)
+    joint_terms = None
+    if joint:  # the joint's own share of K, E and K_loss, for the load-path analysis
+        E_j, L_j = damping_terms(dmp, {r: parts[r] for r in parts if r in REGIONS})
+        blk = (..., slice(ia, ia + 2), slice(ia, ia + 2))
+        joint_terms = (coupling.stiffness, E_j[blk], L_j[blk])
 
     # ---- load and outputs
     Bq = np.zeros((n, 1))
@@ -464,6 +473,10 @@ def ear_model(
     if single:
         K, Mb, E_visc, K_loss = K[0], Mb[0], E_visc[0], K_loss[0]
         Bb, C, d_umbo = Bb[0], C[0], d_umbo[0]
+        if joint_terms is not None:
+            joint_terms = tuple(np.broadcast_to(t, (nd, 2, 2))[0] for t in joint_terms)
     system = SecondOrderModel(M=Mb, E=E_visc, K=K, B=Bb, C=C, K_loss=K_loss)
     modal = slice(iw + 1, n) if n_modes else None
-    return LumpedEar(system=system, coordinates=tuple(names), umbo_direction=d_umbo, drum_modes=modal)
+    return LumpedEar(
+        system=system, coordinates=tuple(names), umbo_direction=d_umbo, drum_modes=modal, joint=joint_terms
+    )
