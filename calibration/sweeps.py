@@ -259,6 +259,7 @@ def ear_sweep(
     rayleigh_b_s=None,
     loss_factor=None,
     damping=None,
+    drum_modes=None,
 ) -> EarSweep:
     """Sweep the lumped cat middle ear of one joint design over ``freq_hz``, per Pa.
 
@@ -279,6 +280,9 @@ def ear_sweep(
     damping : isj.damping.Damping or str
         Damping per part, or a preset name (default: the published loss factors); warns as
         :func:`chain_sweep` does.
+    drum_modes : int or isj.lumped.ear_drum.DrumModes
+        The drum's component modes (:func:`isj.lumped.ear.ear_model`); None or 0: its one
+        static shape, valid below the first drum mode (1.7 kHz).
     """
     from isj.lumped.ear import ear_model
 
@@ -292,6 +296,7 @@ def ear_sweep(
         ear_materials=ear_materials,
         rigid_joint=rigid_joint,
         damping=damping,
+        drum_modes=drum_modes or None,
         **region_moduli(materials or Materials()),
     )
     poles_hz, zeta = lumped.natural_frequencies_hz()
