@@ -12,7 +12,8 @@ its number of moduli: 5, so 32, for the shipped calibration) and a dense scrambl
 sample of that domain. :func:`worst_picks` names the designs with the largest certified
 errors, where FE then confirms the surrogate (:func:`confirmations`).
 
-isj.fem is imported inside :func:`load_surrogate` only: this package imports without gmsh.
+The surrogate comes from the caller (``isj explore`` asks :func:`isj.fem.rom.reduced_model`):
+this package never imports isj.fem, so it imports and runs without gmsh.
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ import numpy as np
 from isj.lumped.model import MODULI
 
 from isj.design import DEFAULT_PRESSURE_PA, Geometry, Materials
-from isj.errors import InvalidParameter, MeshError
+from isj.errors import InvalidParameter
 
 from .checks import lumped_static
 
@@ -58,29 +59,6 @@ VERDICTS = ("ok", "fail", "outside")
 def short(key: str) -> str:
     """``alpha_rad`` → ``alpha``: the stem of an error column (errors are relative, not rad)."""
     return key.removesuffix("_rad")
-
-
-def load_surrogate(
-    order: int = 2,
-    resolution: float = 1.0,
-    geometry: Geometry | None = None,
-    incus_e_pa: float | None = None,
-    progress=None,
-):
-    """The surrogate of the FE model on one mesh: ``(rom, None)``, or ``(None, why)`` without one.
-
-    Built the first time for a mesh (minutes on the default one), then read from the cache
-    (:func:`isj.fem.rom.reduced_model`). Without gmsh (and no cached mesh) the reason says so;
-    the caller goes on unguarded.
-    """
-    try:
-        from isj.fem.rom import DesignSpace, reduced_model
-
-        space = DesignSpace(incus_e_pa=Materials().incus_e_pa if incus_e_pa is None else float(incus_e_pa))
-        return reduced_model(geometry, order, resolution, space, progress=progress), None
-    except (ImportError, MeshError) as exc:
-        first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        return None, f"no surrogate of the P{order} mesh at resolution {resolution:g}: {first}"
 
 
 def _base(rom) -> dict[str, float]:
@@ -211,13 +189,10 @@ class GuardSet:
 
 
 def _inside(rom, designs: Mapping[str, np.ndarray]) -> np.ndarray:
-    from isj.fem.rom import RANGED
-
     n = np.size(designs["incus_e_pa"])
     # the incus is fixed per surrogate: equal up to the slack (a grid's log-midpoint misses it by an ulp)
     ok = np.abs(np.asarray(designs["incus_e_pa"]) / rom.space.incus_e_pa - 1) <= EDGE_SLACK
-    for k in RANGED:
-        lo, hi = rom.space.bounds[k]
+    for k, (lo, hi) in rom.space.bounds.items():
         v = np.asarray(designs[k])
         ok &= np.isfinite(v) & (v >= lo * (1 - EDGE_SLACK)) & (v <= hi * (1 + EDGE_SLACK))
     return np.broadcast_to(ok, (n,)).copy()
@@ -232,9 +207,11 @@ def guard_set(
     pressure_pa: float = DEFAULT_PRESSURE_PA,
     geometry: Geometry | None = None,
 ) -> GuardSet:
-    """Lumped model and surrogate over ``designs`` (moduli in Pa; missing ones the defaults)."""
-    from isj.fem.rom import RANGED
+    """Lumped model and surrogate over ``designs`` (moduli in Pa; missing ones the defaults).
 
+    ``rom`` is an :class:`isj.fem.rom.ReducedModel` (its ``space.bounds`` name the ranged moduli in
+    the order of its design columns).
+    """
     d = _full(designs, _base(rom))
     n = d["incus_e_pa"].size
     lum = lumped_static(calibration, d, geometry, pressure_pa)
@@ -244,7 +221,7 @@ def guard_set(
     keys = [*GUARDED, *GUARDED.values()]
     sur = {k: np.full(n, np.nan) for k in keys}
     if inside.any():
-        E = np.stack([d[k][inside] for k in RANGED], axis=1)
+        E = np.stack([d[k][inside] for k in rom.space.bounds], axis=1)
         ev = rom.evaluate(E, pressure_pa)
         for k in keys:
             sur[k][inside] = ev[k]

@@ -2,7 +2,7 @@
 
 One small surrogate of a coarse P1 mesh (resolution 0.35, tol 1e-2, small training sets: ~15 s) is
 built for the module in a private cache; the command line gets it through
-``isj.calibration.guard.load_surrogate`` (patched: the command's own default greedy settings would
+``isj._cli.explore.load_surrogate`` (patched: the command's own default greedy settings would
 take about a minute here). The lumped model is calibrated to the P2 mesh, so on this mesh it errs by
 tens of per cent: the tests check what is recorded, not that the lumped model passes.
 """
@@ -19,6 +19,7 @@ from isj.calibration import guard as G
 from isj.lumped.artifact import default_calibration
 from isj.lumped.model import MODULI, static_response
 
+from isj._cli import explore as cli_explore
 from isj.cli import main
 
 ORDER, RESOLUTION = 1, 0.35
@@ -51,7 +52,7 @@ def cli(rom, monkeypatch, capsys):
         asked.append((order, resolution, incus_e_pa))
         return rom, None
 
-    monkeypatch.setattr(G, "load_surrogate", load)
+    monkeypatch.setattr(cli_explore, "load_surrogate", load)
 
     def run(*argv):
         code = main(["explore", *MESH, *argv])

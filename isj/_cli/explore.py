@@ -89,10 +89,29 @@ def register(sub) -> None:
     p.set_defaults(func=explore)
 
 
+def load_surrogate(
+    order: int, resolution: float, geometry=None, incus_e_pa: float | None = None, progress=None
+):
+    """The surrogate of the FE model on one mesh: ``(rom, None)``, or ``(None, why)`` without one.
+
+    Built the first time for a mesh (minutes on the default one), then read from the cache
+    (:func:`isj.fem.rom.reduced_model`). Without gmsh (and no cached mesh) the reason says so and
+    the command goes on unguarded.
+    """
+    from isj.errors import MeshError
+
+    try:
+        from isj.fem.rom import DesignSpace, reduced_model
+
+        space = DesignSpace(incus_e_pa=Materials().incus_e_pa if incus_e_pa is None else float(incus_e_pa))
+        return reduced_model(geometry, order, resolution, space, progress=progress), None
+    except (ImportError, MeshError) as exc:
+        first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        return None, f"no surrogate of the P{order} mesh at resolution {resolution:g}: {first}"
+
+
 def _surrogate(args):
     """(rom, None) or (None, why); a first build of the mesh's surrogate says so on stderr."""
-    from isj.calibration.guard import load_surrogate
-
     told = []
 
     def progress(step):
