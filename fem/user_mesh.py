@@ -22,7 +22,6 @@ from __future__ import annotations
 import contextlib
 import io
 import os
-import re
 import warnings
 from pathlib import Path
 
@@ -307,6 +306,11 @@ def read_mesh(path, order: int = 2, unit: str = "m", max_bytes: int | None = Non
         raise InvalidMesh(f"{path}: {exc}") from None
     if "capsule_free" in faces:
         bonded = topo.capsule_interface_without(faces["capsule_free"])
+        if not len(bonded):
+            raise InvalidMesh(
+                f"{path}: face group 'capsule_free' covers all of the capsule's faces on other regions; "
+                "cut open, the capsule would touch nothing"
+            )
         faces["capsule_bonded"] = bonded
         points, tets = _cut_free_interface(points, tets, region, faces, REGIONS)
     return TetMesh(points, tets, region, REGIONS, faces)
@@ -362,10 +366,3 @@ def write_mesh(mesh: TetMesh, path) -> Path:
             meshio.write(tmp, out, file_format="gmsh22", binary=False, float_fmt=".16e")
 
     return atomic_write(path, write)
-
-
-def group_names_in(path) -> list[str]:
-    """The physical names of a gmsh file (for messages and tests)."""
-    text = Path(path).read_text(errors="replace")
-    block = text.partition("$PhysicalNames")[2].partition("$EndPhysicalNames")[0]
-    return re.findall(r'"([^"]*)"', block)

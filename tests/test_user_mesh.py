@@ -2,6 +2,7 @@
 gives the built-in α and β; a bad mesh is one line naming the problem and exit code 2."""
 
 import json
+import warnings
 
 import meshio
 import numpy as np
@@ -276,3 +277,60 @@ def test_gmsh_41_tetra10_file_in_micrometres(capsys, tmp_path):
         assert own[key] == pytest.approx(built_in[key], rel=1e-9)
     assert meshio.read(vtu).cells[0].type == "tetra"
     assert set(own["strain_energy_j"]) == set(REGIONS)
+
+
+def test_tetra10_corners_are_used_and_curved_ones_warned(joint, tmp_path):
+    from isj.fem.elements import TET10_EDGES
+
+    from isj.errors import IsjWarning
+
+    p, t, r, f = uncut(joint)
+    n = len(p)
+    edges = np.sort(t[:, TET10_EDGES].reshape(-1, 2), axis=1)
+    uniq, inv = np.unique(edges[:, 0] * n + edges[:, 1], return_inverse=True)
+    lo, hi = np.divmod(uniq, n)
+    p10 = np.vstack([p, 0.5 * (p[lo] + p[hi])])
+    t10 = np.hstack([t, n + inv.reshape(-1, 6)])
+    tri6 = {}
+    for name, tri in f.items():
+        e = np.sort(tri[:, [[0, 1], [1, 2], [0, 2]]].reshape(-1, 2), axis=1)
+        tri6[name] = np.hstack([tri, n + np.searchsorted(uniq, e[:, 0] * n + e[:, 1]).reshape(-1, 3)])
+    cells = [("tetra10", t10[r == k]) for k in range(len(REGIONS))] + [
+        ("triangle6", v) for v in tri6.values()
+    ]
+    tags = [np.full(len(c[1]), k + 1) for k, c in enumerate(cells[:6])] + [
+        np.full(len(v), 11 + k) for k, v in enumerate(tri6.values())
+    ]
+    fd = {name: np.array([k + 1, 3]) for k, name in enumerate(REGIONS)} | {
+        name: np.array([11 + k, 2]) for k, name in enumerate(tri6)
+    }
+
+    def write(path, points):
+        meshio.write(
+            path,
+            meshio.Mesh(
+                points, cells, cell_data={"gmsh:physical": tags, "gmsh:geometrical": tags}, field_data=fd
+            ),
+            file_format="gmsh22",
+            binary=False,
+        )
+        return path
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        back = read_mesh(write(tmp_path / "t10.msh", p10))
+    assert back.content_hash() == joint.content_hash()
+    bent = p10.copy()
+    bent[n] += 1e-7  # one mid-edge node off its midpoint
+    with pytest.warns(IsjWarning, match="mid-edge nodes"):
+        read_mesh(write(tmp_path / "bent.msh", bent))
+
+
+def test_capsule_free_over_the_whole_interface_refused(capsys, joint, tmp_path):
+    from isj.fem.user_checks import check_topology
+
+    p, t, r, f = uncut(joint)
+    topo = check_topology("x", p, t, r, f)
+    f["capsule_free"] = topo.capsule_interface_without(np.empty((0, 3), dtype=np.int64))
+    err = refused(capsys, write_arrays(tmp_path / "loose.msh", p, t, r, f))
+    assert "capsule would touch nothing" in err
