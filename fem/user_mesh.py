@@ -137,9 +137,63 @@ def _read_meshio(path: Path):
             warnings.simplefilter("ignore")  # meshio's notes on what it skips, and stray output
             return meshio.read(path)
     except (Exception, SystemExit) as exc:  # meshio raises ReadError, KeyError, ... or exits on bad files
+        if path.suffix.lower() == ".msh":
+            try:  # e.g. 4.1 with "save all": meshio 5.3 fails on entities outside physical groups
+                return _read_with_gmsh(path)
+            except Exception:  # noqa: S110 - report meshio's reason, the first reader's
+                pass
         lines = [*str(exc).strip().splitlines(), *" ".join(said.getvalue().split()).splitlines()]
         text = next((t for t in lines if len(t) > 3), type(exc).__name__)
         raise InvalidMesh(f"{path}: meshio cannot read it ({text})") from None
+
+
+#: gmsh element type → (meshio type, node permutation to meshio's order).
+_GMSH_TYPES = {2: ("triangle", None), 9: ("triangle6", None), 4: ("tetra", None)}
+_GMSH_TYPES[11] = ("tetra10", [0, 1, 2, 3, 4, 5, 6, 7, 9, 8])
+
+
+def _read_with_gmsh(path: Path):
+    """A meshio.Mesh of a .msh read by gmsh's own API: blocks per entity, cell_sets per physical name."""
+    import meshio
+
+    from .mesh import _openmp_threads_kept, import_gmsh
+
+    gmsh = import_gmsh()
+    if gmsh.isInitialized():
+        raise MeshError("gmsh is already initialised in this process")
+    with _openmp_threads_kept():
+        gmsh.initialize(readConfigFiles=False, interruptible=False)
+        try:
+            gmsh.option.setNumber("General.Terminal", 0)
+            gmsh.open(str(path))
+            tags, coords, _ = gmsh.model.mesh.getNodes()
+            row = np.full(int(tags.max()) + 1, -1, dtype=np.int64)
+            row[tags.astype(np.int64)] = np.arange(len(tags))
+            cells, where = [], {}
+            for dim, ent in gmsh.model.getEntities():
+                for etype, _, conn in zip(*gmsh.model.mesh.getElements(dim, ent), strict=True):
+                    kind, perm = _GMSH_TYPES.get(int(etype), (None, None))
+                    if kind is None:
+                        continue
+                    n = {"triangle": 3, "triangle6": 6, "tetra": 4, "tetra10": 10}[kind]
+                    data = row[np.asarray(conn, dtype=np.int64).reshape(-1, n)]
+                    where[(dim, ent)] = [*where.get((dim, ent), []), len(cells)]
+                    cells.append((kind, data if perm is None else data[:, perm]))
+            sets = {}
+            for dim, ptag in gmsh.model.getPhysicalGroups():
+                name = gmsh.model.getPhysicalName(dim, ptag) or f"{dim}:{ptag}"
+                chosen = {
+                    b
+                    for e in gmsh.model.getEntitiesForPhysicalGroup(dim, ptag)
+                    for b in where.get((dim, e), [])
+                }
+                sets[name] = [
+                    np.arange(len(c[1])) if b in chosen else np.empty(0, np.int64)
+                    for b, c in enumerate(cells)
+                ]
+        finally:
+            gmsh.finalize()
+    return meshio.Mesh(np.asarray(coords).reshape(-1, 3), cells, cell_sets=sets)
 
 
 def _groups(m) -> dict[str, dict[int, np.ndarray]]:
