@@ -338,3 +338,16 @@ def test_capsule_free_over_the_whole_interface_refused(capsys, joint, tmp_path):
     f["capsule_free"] = topo.capsule_interface_without(np.empty((0, 3), dtype=np.int64))
     err = refused(capsys, write_arrays(tmp_path / "loose.msh", p, t, r, f))
     assert "capsule would touch nothing" in err
+
+
+def test_fem_mesh_reports_and_converts_a_user_mesh(capsys, joint, tmp_path):
+    p, t, r, f = uncut(joint)
+    vtu = write_arrays(tmp_path / "own.vtu", p, t, r, f, file_format="vtu")
+    code, out, err = run(
+        capsys,
+        ["fem", "mesh", "--json", "--order", "1", "--mesh", str(vtu), "--msh", str(tmp_path / "own.msh")],
+    )
+    assert code == 0, err
+    report = json.loads(out.splitlines()[0])
+    assert report["mesh_hash"] == joint.content_hash() and report["n_tets"] == joint.n_tets
+    assert read_mesh(tmp_path / "own.msh").content_hash() == joint.content_hash()

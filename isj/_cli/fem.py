@@ -69,6 +69,14 @@ def register(sub) -> None:
         metavar="FILE",
         help="also write the built-in point pairs as an isj fem solve --points file (.toml)",
     )
+    p.add_argument(
+        "--mesh",
+        metavar="FILE",
+        help="report (and with --msh convert) your own mesh instead of the built-in one (as for fem solve)",
+    )
+    p.add_argument(
+        "--mesh-unit", choices=("m", "mm", "um"), default="m", help="length unit of --mesh (default m)"
+    )
     c.add_json_option(p)
     p.set_defaults(func=mesh)
 
@@ -119,15 +127,16 @@ def _user_model(args):
     if args.geometry or args.resolution != 1.0:
         raise UsageError("--geometry, --resolution: not with --mesh (the mesh file is the geometry)")
     c.check_solver(args.solver)
+    points_file = getattr(args, "points", None)
     try:
-        points = read_points(args.points) if args.points is not None else None
+        points = read_points(points_file) if points_file is not None else None
     except InvalidMesh as exc:
         raise UsageError(f"--points {exc}") from None
     try:
         t0 = time.perf_counter()
         mesh = read_mesh(args.mesh, order=args.order, unit=args.mesh_unit)
         t1 = time.perf_counter()
-        model = UserMeshModel(mesh, args.order, args.solver, points, f"--points {args.points}")
+        model = UserMeshModel(mesh, args.order, args.solver, points, f"--points {points_file}")
     except InvalidMesh as exc:
         raise UsageError(f"--mesh {exc}") from None
     model.timings_s["read"] = t1 - t0
@@ -360,8 +369,13 @@ def mesh(args) -> int:
 
     msh = c.check_out_path(args.msh, "--msh", ".msh")
     points_out = c.check_out_path(args.points_out, "--points-out", ".toml")
-    geometry = _checked_geometry(args)
-    model = _model(args, geometry)
+    if args.mesh is not None:
+        if points_out is not None:
+            raise UsageError("--points-out: not with --mesh (it writes the built-in point pairs)")
+        model = _user_model(args)
+    else:
+        geometry = _checked_geometry(args)
+        model = _model(args, geometry)
     if msh is not None:
         write_mesh(model.mesh, msh)
     if points_out is not None:
