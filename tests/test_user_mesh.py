@@ -231,7 +231,7 @@ def test_points_file_errors(capsys, files, tmp_path):
     far = tmp_path / "far.toml"
     far.write_text(toml.read_text().replace("0.000455]", "0.0455]"))
     err = refused(capsys, msh, "--points", str(far))
-    assert "incus_at_pedicle" in err and "outside" in err
+    assert err.startswith("isj: error: --points") and "incus_at_pedicle" in err and "outside" in err
 
 
 def test_mesh_options_refused(capsys, files, tmp_path):

@@ -136,9 +136,12 @@ def _user_model(args):
         t0 = time.perf_counter()
         mesh = read_mesh(args.mesh, order=args.order, unit=args.mesh_unit)
         t1 = time.perf_counter()
-        model = UserMeshModel(mesh, args.order, args.solver, points, f"--points {points_file}")
     except InvalidMesh as exc:
         raise UsageError(f"--mesh {exc}") from None
+    try:
+        model = UserMeshModel(mesh, args.order, args.solver, points, f"--points {points_file}")
+    except InvalidMesh as exc:  # a point outside its region: the message names --points
+        raise UsageError(str(exc)) from None
     model.timings_s["read"] = t1 - t0
     return model
 
