@@ -38,6 +38,15 @@ from .angles import angle_operator
 from .assembly import assemble_mass, assemble_regions, build_pattern, combine, lame_unit
 from .boundary import Reduction, clamped_dofs, pressure_load
 from .energy import element_strain_energy_density, region_strain_energy
+from .sliding import (
+    DEFAULT_LAYER_SHEAR_PA,
+    check_joint,
+    check_layer_shear,
+    layer_correction,
+    layer_gap_energy_change,
+    split_gap_face,
+    tied_reduction,
+)
 from .solvers import make_solver
 from .space import build_space
 
@@ -196,6 +205,8 @@ class PedicleJointModel(ElasticModel):
     solver : sparse solver backend, see ``fem.solvers`` ("auto" = fastest here)
     cache_dir : mesh cache folder; None = default, False = no cache
     mesh : a ready ``TetMesh`` (skips meshing; for tests)
+    joint : "bonded" (default), "sliding" or "layer" (``fem.sliding``, docs/model.md §2.12)
+    layer_shear_pa : the ``layer`` joint's through-thickness shear modulus (Pa)
     """
 
     def __init__(
@@ -207,22 +218,37 @@ class PedicleJointModel(ElasticModel):
         solver: str = "auto",
         cache_dir=None,
         mesh=None,
+        joint: str = "bonded",
+        layer_shear_pa: float = DEFAULT_LAYER_SHEAR_PA,
     ):
         if order not in (1, 2):
             raise ValueError(f"order = {order!r}: must be 1 or 2")
         self.geometry = geometry or Geometry()
+        self.joint = check_joint(joint)
+        self.layer_shear_pa = check_layer_shear(layer_shear_pa)
         t0 = time.perf_counter()
         if mesh is None:
             from .mesh import mesh_pedicle_joint
 
             mesh = mesh_pedicle_joint(self.geometry, resolution=resolution, sizes=sizes, cache_dir=cache_dir)
+        if joint == "sliding":  # the bonded mesh, cut open at the gap–plate face (fem.sliding)
+            mesh = split_gap_face(mesh, self.geometry)
         t1 = time.perf_counter()
         super().__init__(mesh, order, solver)
+        if joint == "sliding":
+            self.reduction = tied_reduction(self, clamped_dofs(self.space, "clamped"))
         # the −x face of the incus, pushed in +x; unit pressure, scaled per case
         self.unit_load = pressure_load(self.space, "loaded", 1.0, (1.0, 0.0, 0.0))
         self.angles = angle_operator(self.space, self.geometry)
         t2 = time.perf_counter()
         self.timings_s.update(mesh=t1 - t0, assembly=t2 - t1)
+
+    def stiffness_data(self, materials: Materials) -> np.ndarray:
+        """As :meth:`ElasticModel.stiffness_data`; with ``joint="layer"`` the gap is the layer."""
+        data = super().stiffness_data(materials)
+        if self.joint == "layer":
+            data = data + layer_correction(self, materials)
+        return data
 
     def displacement(self, materials: Materials, pressure_pa: float) -> np.ndarray:
         """Full dof vector of the static displacement (m)."""
@@ -243,6 +269,8 @@ class PedicleJointModel(ElasticModel):
         a, b, a_ls, b_ls = self.angles @ u
         youngs = {r: materials.youngs(r) for r in self.regions}
         energy = region_strain_energy(self.pattern, self.regions, youngs, materials.nu, u)
+        if self.joint == "layer":
+            energy["gap"] += layer_gap_energy_change(self, materials, u)
         disp = u.reshape(-1, 3)
         self.timings_s["post"] = time.perf_counter() - t0
         return StaticResult(

@@ -10,6 +10,36 @@ from isj.errors import UsageError
 from . import _common as c
 
 
+def add_joint_options(p) -> None:
+    """``--joint`` and ``--layer-shear-pa`` (docs/model.md 2.12)."""
+    from isj.fem.sliding import DEFAULT_LAYER_SHEAR_PA, JOINTS
+
+    p.add_argument(
+        "--joint",
+        choices=JOINTS,
+        default="bonded",
+        help="the incudostapedial joint: bonded cartilage (the thesis's, default), a frictionless "
+        "sliding interface on the gap-plate face, or a layer of low through-thickness shear modulus "
+        "(docs/model.md 2.12)",
+    )
+    p.add_argument(
+        "--layer-shear-pa",
+        type=c.float_option("--layer-shear-pa", 0.0, 1e12),
+        default=DEFAULT_LAYER_SHEAR_PA,
+        metavar="PA",
+        help="with --joint layer: the layer's shear modulus G_xz = G_yz in Pa "
+        f"(default {DEFAULT_LAYER_SHEAR_PA:g})",
+    )
+
+
+def _joint_out(args, model, res) -> dict:
+    """The joint and how its shear splits (JSON keys of fem solve and fem cases)."""
+    from isj.fem.sliding import shear_split
+
+    out = {"joint": model.joint, "layer_shear_pa": model.layer_shear_pa if model.joint == "layer" else None}
+    return out | shear_split(model, res)
+
+
 def register(sub) -> None:
     """Add ``isj fem`` and its commands to the top-level subparsers ``sub``."""
     fem = sub.add_parser("fem", help="the finite-element verifier")
@@ -35,6 +65,7 @@ def register(sub) -> None:
         "without it alpha and beta are the least-squares rotations of the bodies",
     )
     p.add_argument("--vtu", metavar="PATH", help="write the deformed model for ParaView (.vtu)")
+    add_joint_options(p)
     c.add_json_option(p)
     p.set_defaults(func=solve)
 
@@ -43,6 +74,7 @@ def register(sub) -> None:
     c.pressure_option(p, "the incus")
     c.add_mesh_options(p)
     p.add_argument("--vtu", metavar="PATH", help="write the base case for ParaView (.vtu)")
+    add_joint_options(p)
     c.add_json_option(p, "a JSON list")
     p.set_defaults(func=cases)
 
@@ -53,6 +85,7 @@ def register(sub) -> None:
         "--n", type=c.int_option("--n", 1, 100), default=6, help="number of modes, in [1, 100] (default 6)"
     )
     p.add_argument("--vtu-dir", metavar="DIR", help="write mode shapes (VTU + modes.pvd)")
+    add_joint_options(p)
     c.add_json_option(p)
     p.set_defaults(func=modes)
 
@@ -114,8 +147,16 @@ def _checked_geometry(args):
 
 def _model(args, geometry):
     from isj.fem.model import PedicleJointModel
+    from isj.fem.sliding import DEFAULT_LAYER_SHEAR_PA
 
-    return PedicleJointModel(geometry, args.order, args.resolution, solver=args.solver)
+    return PedicleJointModel(
+        geometry,
+        args.order,
+        args.resolution,
+        solver=args.solver,
+        joint=getattr(args, "joint", "bonded"),
+        layer_shear_pa=getattr(args, "layer_shear_pa", None) or DEFAULT_LAYER_SHEAR_PA,
+    )
 
 
 def _user_model(args):
@@ -154,6 +195,8 @@ def solve(args) -> int:
     vtu = c.check_out_path(args.vtu, "--vtu", ".vtu")
     materials = c.materials(args)
     if args.mesh is not None:
+        if args.joint != "bonded":
+            raise UsageError(f"--joint {args.joint}: only on the built-in mesh, not with --mesh")
         return _solve_user_mesh(args, vtu, materials)
     if args.points is not None:
         raise UsageError("--points: only with --mesh FILE (the built-in model has its own points)")
@@ -171,7 +214,8 @@ def solve(args) -> int:
         "mesh_hash": model.mesh.content_hash(),
         "timings_s": timings,
     }
-    c.check_finite(out, c.design_inputs(args))
+    out |= _joint_out(args, model, res)
+    c.check_finite({k: v for k, v in out.items() if v is not None}, c.design_inputs(args))
     if vtu is not None:
         write_model_vtu(vtu, model, res)
         write_run_record(vtu.with_suffix(".json"), args, out)
@@ -180,6 +224,11 @@ def solve(args) -> int:
         return 0
     print(f"P{args.order} mesh: {model.n_tets} tets, {model.n_dofs} dofs, solver {model.solver_name}")
     _print_static(args, res, timings, vtu)
+    print(
+        f"joint {out['joint']}: the shear across the gap's mid-plane is carried "
+        f"{100 * out['capsule_shear_share']:.1f}% by the capsule, "
+        f"{100 * out['gap_shear_share']:.1f}% by the gap"
+    )
     return 0
 
 
@@ -248,9 +297,12 @@ def cases(args) -> int:
         res = model.solve(case.materials(base), args.pressure)
         results[case.name] = res
         moduli = {k: getattr(case, k) for k in ("pedicle_e_pa", "gap_e_pa", "capsule_e_pa")}
-        rows.append({"case": case.name} | moduli | res.to_dict())
+        rows.append({"case": case.name} | moduli | res.to_dict() | _joint_out(args, model, res))
     elapsed = time.perf_counter() - t0
-    c.check_finite(rows, f"--nu {args.nu:g}, --pressure {args.pressure:g}")
+    c.check_finite(
+        [{k: v for k, v in r.items() if v is not None} for r in rows],
+        f"--nu {args.nu:g}, --pressure {args.pressure:g}",
+    )
     if vtu is not None:
         write_model_vtu(vtu, model, results["base"])
         record = {"cases": rows, "n_tets": model.n_tets, "n_dofs": model.n_dofs}
@@ -260,11 +312,11 @@ def cases(args) -> int:
         return 0
     print(
         f"Seven thesis cases: P{args.order}, {model.n_tets} tets, {model.n_dofs} dofs, "
-        f"{args.pressure:g} Pa on the incus, solver {model.solver_name}, {elapsed:.1f} s"
+        f"{args.pressure:g} Pa on the incus, solver {model.solver_name}, {elapsed:.1f} s, joint {model.joint}"
     )
     print(
         f"{'case':7} {'E_ped GPa':>9} {'E_gap MPa':>9} {'E_cap MPa':>9} {'alpha urad':>10} "
-        f"{'beta urad':>10} {'a+b urad':>9} {'beta/alpha':>10} {'ped. energy':>11}"
+        f"{'beta urad':>10} {'a+b urad':>9} {'beta/alpha':>10} {'ped. energy':>11} {'cap. shear':>10}"
     )
     for r in rows:
         print(
@@ -272,7 +324,8 @@ def cases(args) -> int:
             f"{r['capsule_e_pa'] / 1e6:9.3g} {r['alpha_rad'] * 1e6:10.4f} "
             f"{r['beta_rad'] * 1e6:10.4f} "
             f"{r['alpha_plus_beta_rad'] * 1e6:9.4f} {r['beta_over_alpha']:10.3f} "
-            f"{100 * r['strain_energy_fraction']['pedicle']:10.1f}%"
+            f"{100 * r['strain_energy_fraction']['pedicle']:10.1f}% "
+            f"{100 * r['capsule_shear_share']:9.1f}%"
         )
     print(
         f"thesis base case (Table 7.2): alpha {THESIS_BASE_ALPHA_RAD * 1e6:.3f}, "
@@ -349,7 +402,12 @@ def modes(args) -> int:
     model = _model(args, geometry)
     freq_hz, shapes = fe_modes(model, materials, args.n)
     elapsed = time.perf_counter() - t0
-    out = {"freq_hz": [float(f) for f in freq_hz], "n_dofs": model.n_dofs, "n_tets": model.n_tets}
+    out = {
+        "freq_hz": [float(f) for f in freq_hz],
+        "n_dofs": model.n_dofs,
+        "n_tets": model.n_tets,
+        "joint": model.joint,
+    }
     c.check_finite(out, c.design_inputs(args))
     if out_dir is not None:
         write_modes(out_dir, model, freq_hz, shapes)
