@@ -44,6 +44,34 @@ def fe_arrays(records: list[dict]) -> tuple[dict[str, np.ndarray], np.ndarray, n
     return moduli_arrays(designs), alpha, beta
 
 
+def record_lever(records: list[dict], geometry: Geometry | None = None) -> Lever:
+    """The load path's constants of the records: one geometry, or one per record.
+
+    A record may carry its own ``"geometry"`` (fields of :class:`~isj.design.Geometry`, m,
+    over ``geometry``); then every field of the lever is an array over the records.
+    """
+    base = geometry or Geometry()
+    if not any(r.get("geometry") for r in records):
+        return Lever.from_geometry(base)
+    return Lever.from_geometries([base.replace(**(r.get("geometry") or {})) for r in records])
+
+
+def _casadi_lever(lever: Lever, n: int) -> Lever:
+    """``lever`` with its array fields as CasADi column vectors of length ``n``."""
+    import dataclasses
+
+    import casadi as ca
+
+    return dataclasses.replace(
+        lever,
+        **{
+            f: ca.DM(np.broadcast_to(np.asarray(getattr(lever, f), dtype=float), (n,)))
+            for f in Lever.__dataclass_fields__
+            if np.ndim(getattr(lever, f))
+        },
+    )
+
+
 def relative_errors(factors, E, alpha_fe, beta_fe, lever: Lever) -> tuple[np.ndarray, np.ndarray]:
     a, b = equations(E, np.asarray(factors, dtype=float), lever)
     return a / alpha_fe - 1, b / beta_fe - 1
@@ -52,16 +80,20 @@ def relative_errors(factors, E, alpha_fe, beta_fe, lever: Lever) -> tuple[np.nda
 def fit_factors(
     records: list[dict], geometry: Geometry | None = None, x0=None, max_iter: int = 500
 ) -> FitResult:
-    """Calibrate the lumped factors on FE records (see :func:`fe_arrays`)."""
+    """Calibrate the lumped factors on FE records (see :func:`fe_arrays`).
+
+    Records may carry their own ``"geometry"`` (:func:`record_lever`): geometry and moduli are
+    then fitted together.
+    """
     import casadi as ca
 
-    lever = Lever.from_geometry(geometry or Geometry())
+    lever = record_lever(records, geometry)
     E, alpha_fe, beta_fe = fe_arrays(records)
     n = len(FACTOR_NAMES)
     logf = ca.SX.sym("log_factors", n)
     f = ca.exp(logf)
     Edm = {k: ca.DM(np.broadcast_to(v, alpha_fe.shape)) for k, v in E.items()}
-    a, b = equations(Edm, [f[i] for i in range(n)], lever)
+    a, b = equations(Edm, [f[i] for i in range(n)], _casadi_lever(lever, alpha_fe.size))
     r = ca.vertcat(a / ca.DM(alpha_fe) - 1, b / ca.DM(beta_fe) - 1)
     J = ca.jacobian(r, logf)
     obj = 0.5 * ca.dot(r, r)

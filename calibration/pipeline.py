@@ -12,27 +12,32 @@ from importlib import metadata
 
 import numpy as np
 from isj.lumped.artifact import Calibration
-from isj.lumped.model import FACTOR_NAMES, Lever, equations, moduli_arrays
+from isj.lumped.model import FACTOR_NAMES, equations, moduli_arrays
 
 from isj.design import Geometry
 
-from .doe import DesignSpace, sample
-from .fit import fit_factors
-from .runner import run_designs
+from .doe import DesignSpace, GeometrySpace, mixed_corners, sample, sample_with_geometry
+from .fit import fit_factors, record_lever
+from .runner import run_designs, run_geometry_designs
 
 
-def records_for_fit(records: list[dict]) -> list[dict]:
-    """Runner records → fit records: α, β per pascal (the model is linear in the load)."""
+def records_for_fit(records: list[dict], with_geometry: bool = False) -> list[dict]:
+    """Runner records → fit records: α, β per pascal (the model is linear in the load).
+
+    ``with_geometry``: each fit record also carries its FE settings' ``geometry`` (m), for a fit
+    over geometry and moduli together.
+    """
     out = []
     for r in records:
         p = r["settings"]["pressure_pa"]
-        out.append(
-            {
-                "design": r["design"],
-                "alpha_per_pa": r["result"]["alpha_rad"] / p,
-                "beta_per_pa": r["result"]["beta_rad"] / p,
-            }
-        )
+        rec = {
+            "design": r["design"],
+            "alpha_per_pa": r["result"]["alpha_rad"] / p,
+            "beta_per_pa": r["result"]["beta_rad"] / p,
+        }
+        if with_geometry:
+            rec["geometry"] = dict(r["settings"].get("geometry") or {})
+        out.append(rec)
     return out
 
 
@@ -41,7 +46,7 @@ def error_stats(factors, fit_records: list[dict], geometry: Geometry | None = No
     designs = {k: np.array([r["design"][k] for r in fit_records]) for k in fit_records[0]["design"]}
     a_fe = np.array([r["alpha_per_pa"] for r in fit_records])
     b_fe = np.array([r["beta_per_pa"] for r in fit_records])
-    a, b = equations(moduli_arrays(designs), np.asarray(factors), Lever.from_geometry(geometry or Geometry()))
+    a, b = equations(moduli_arrays(designs), np.asarray(factors), record_lever(fit_records, geometry))
     out = {"n": len(fit_records)}
     for name, lum, fe in (("alpha", a, a_fe), ("beta", b, b_fe), ("ratio", b / a, b_fe / a_fe)):
         e = lum / fe - 1
@@ -91,6 +96,73 @@ def calibrate(
         training=error_stats(res.factors, train_rec, geometry) | {"ipopt_iterations": res.iterations},
         validation=error_stats(res.factors, held_rec, geometry) if held_rec else {},
         fe_settings={k: v for k, v in settings.items()} | {"mesh_hash": mesh_hashes},
+        provenance={
+            "samples": samples,
+            "validation_samples": validation,
+            "seed": seed,
+            "versions": _versions(),
+            "date": _dt.date.today().isoformat(),
+        },
+    )
+
+
+def geometry_designs(
+    space: DesignSpace, geometry: GeometrySpace, samples: int, validation: int, seed: int
+) -> tuple[list[tuple[dict, dict]], list[tuple[dict, dict]]]:
+    """Training (scrambled Sobol', ``seed``) and held-out (Latin hypercube, ``seed + 1``) designs.
+
+    Each a list of ``(moduli (Pa), dimensions (m))`` from :func:`calibration.doe.sample_with_geometry`.
+    """
+    train = sample_with_geometry(space, geometry, samples, seed, method="sobol")
+    held = sample_with_geometry(space, geometry, validation, seed + 1, method="lhs") if validation else []
+    return train, held
+
+
+def calibrate_geometry(
+    evaluate,
+    settings: dict,
+    cache_dir,
+    samples: int = 96,
+    validation: int = 64,
+    seed: int = 0,
+    space: DesignSpace | None = None,
+    geometry: GeometrySpace | None = None,
+    max_workers: int | None = 1,
+    progress: bool = True,
+) -> Calibration:
+    """:func:`calibrate` over geometry and moduli together (docs/lumped.md §3.13).
+
+    Every design has its own moduli and dimensions (:func:`geometry_designs`); the fit sees each
+    design's geometry through its own :class:`~isj.lumped.model.Lever`. The artifact records the
+    geometric domain under ``geometry_domain`` and the errors at :func:`calibration.doe.mixed_corners`
+    under ``corners``.
+    """
+    space = space or DesignSpace()
+    geometry = geometry or GeometrySpace()
+    train, held = geometry_designs(space, geometry, samples, validation, seed)
+    corners = mixed_corners(space, geometry)
+    items = train + held + [(m, g) for _, m, g in corners]
+    records = run_geometry_designs(
+        items, evaluate, settings, cache_dir, max_workers=max_workers, progress=progress
+    )
+    fit_rec = records_for_fit(records, with_geometry=True)
+    n1, n2 = len(train), len(train) + len(held)
+    train_rec, held_rec, corner_rec = fit_rec[:n1], fit_rec[n1:n2], fit_rec[n2:]
+    res = fit_factors(train_rec)
+    mesh_hashes = sorted({r["result"].get("mesh_hash", "") for r in records[:n1]})
+    corner_errors = {}
+    for (label, _, _), rec in zip(corners, corner_rec, strict=True):
+        e = error_stats(res.factors, [rec])
+        corner_errors[label] = {"alpha": e["max_alpha"], "beta": e["max_beta"]}
+    fe = {k: v for k, v in settings.items()} | {"n_meshes": len(mesh_hashes)}
+    return Calibration(
+        factors={n: float(v) for n, v in zip(FACTOR_NAMES, res.factors, strict=True)},
+        domain=space.to_dict(),
+        geometry_domain=geometry.to_dict(),
+        training=error_stats(res.factors, train_rec) | {"ipopt_iterations": res.iterations},
+        validation=error_stats(res.factors, held_rec) if held_rec else {},
+        corners=corner_errors,
+        fe_settings=fe,
         provenance={
             "samples": samples,
             "validation_samples": validation,

@@ -286,3 +286,61 @@ def _run_dask(todo: dict, evaluate, settings: dict, scheduler, store) -> None:
     finally:
         if owned:
             client.close()
+
+
+def _run_group(designs: list, evaluate, settings: dict, cache_dir) -> list[dict]:
+    """One geometry's designs in this process (its model meshed once): a pool task."""
+    return run_designs(designs, evaluate, settings, cache_dir, max_workers=0, progress=False)
+
+
+def run_geometry_designs(
+    items: Sequence[tuple[Mapping, Mapping]],
+    evaluate: Callable[[dict, dict], Mapping],
+    settings: Mapping,
+    cache_dir: str | os.PathLike,
+    max_workers: int | None = None,
+    progress: bool = True,
+) -> list[dict]:
+    """:func:`run_designs` for designs that differ in geometry too: ``(moduli, dimensions)`` pairs.
+
+    Each pair's dimensions (m) override ``settings["geometry"]``, so each design is cached under
+    the settings of its own geometry. Designs are grouped by geometry, one group per task, so a
+    geometry is meshed and assembled once for all its moduli. ``max_workers`` worker processes
+    (spawned; default 1; 0: this process). Records come back in input order.
+    """
+    settings = _canonical(settings, "settings")
+    groups: dict[str, tuple[dict, list[int]]] = {}
+    for i, (_, dims) in enumerate(items):
+        s = dict(settings, geometry={**settings.get("geometry", {}), **_canonical(dims, "geometry")})
+        groups.setdefault(_dumps(s), (s, []))[1].append(i)
+    cache = ResultCache(cache_dir)
+    out: list[dict | None] = [None] * len(items)
+    todo = []
+    for s, idx in groups.values():
+        designs = [_canonical_design(items[i][0]) for i in idx]
+        recs = [cache.get(design_key(d, s)) for d in designs]
+        for i, r in zip(idx, recs, strict=True):
+            out[i] = r
+        if any(r is None for r in recs):
+            todo.append((s, idx, designs))
+    bar = tqdm(total=len(todo), desc="FE geometries", unit="geometry", disable=None if progress else True)
+    try:
+        if max_workers == 0:
+            for s, idx, designs in todo:
+                for i, r in zip(idx, _run_group(designs, evaluate, s, cache_dir), strict=True):
+                    out[i] = r
+                bar.update()
+        else:
+            workers = 1 if max_workers is None else int(max_workers)
+            ctx = multiprocessing.get_context("spawn")
+            with ProcessPoolExecutor(max(1, min(workers, len(todo) or 1)), mp_context=ctx) as pool:
+                futs = {
+                    pool.submit(_run_group, designs, evaluate, s, cache_dir): idx for s, idx, designs in todo
+                }
+                for fut in futs:
+                    for i, r in zip(futs[fut], fut.result(), strict=True):
+                        out[i] = r
+                    bar.update()
+    finally:
+        bar.close()
+    return out  # type: ignore[return-value]

@@ -45,6 +45,8 @@ class Calibration:
     provenance: dict = field(default_factory=dict)
     dynamics: dict = field(default_factory=dict)
     format: int = FORMAT_VERSION
+    geometry_domain: dict[str, list[float]] = field(default_factory=dict)
+    corners: dict = field(default_factory=dict)
 
     def factor_array(self) -> np.ndarray:
         return np.array([self.factors[n] for n in FACTOR_NAMES], dtype=float)
@@ -71,6 +73,27 @@ class Calibration:
                 out[k] = (v < lo * (1 - 1e-9)) | (v > hi * (1 + 1e-9))
         return out
 
+    def outside_geometry(self, geometry) -> dict[str, tuple[float, float, float]]:
+        """The dimensions of ``geometry`` outside the calibrated geometry: ``{name: (value, low, high)}`` (m).
+
+        A calibration with a ``geometry_domain`` holds inside that box; one without holds only
+        for the geometry it was fitted on (its ``fe_settings``' geometry, else the default one),
+        and every dimension that differs from it counts as outside (low = high = the fitted value).
+        """
+        import dataclasses
+
+        from isj.design import Geometry
+
+        values = dataclasses.asdict(geometry)
+        fitted = {**dataclasses.asdict(Geometry()), **(self.fe_settings.get("geometry") or {})}
+        box = {k: (float(lo), float(hi)) for k, (lo, hi) in self.geometry_domain.items()}
+        out = {}
+        for k, v in values.items():
+            lo, hi = box.get(k, (fitted[k], fitted[k]))
+            if not (lo * (1 - 1e-9) <= v <= hi * (1 + 1e-9)):
+                out[k] = (float(v), lo, hi)
+        return out
+
     def to_json(self) -> str:
         return json.dumps(asdict(self), indent=2, sort_keys=True) + "\n"
 
@@ -93,7 +116,7 @@ class Calibration:
             raise CorruptCalibration(f"{source}: factor(s) {', '.join(bad)} not finite and >= 0")
         if any(not (0 < lo <= hi) for lo, hi in domain.values()):
             raise CorruptCalibration(f"{source}: domain bounds must satisfy 0 < low <= high")
-        names = ("training", "validation", "fe_settings", "provenance", "dynamics")
+        names = ("training", "validation", "fe_settings", "provenance", "dynamics", "corners")
         sections = {k: d.get(k, {}) for k in names}
         for k, v in sections.items():
             if not isinstance(v, dict):
@@ -103,9 +126,17 @@ class Calibration:
         number = isinstance(shear, int | float) and not isinstance(shear, bool)
         if not number or not (math.isfinite(shear) and shear > 0):
             raise CorruptCalibration(f"{source}: dynamics.shear_factor = {shear!r}, must be finite and > 0")
+        try:
+            gdomain = {k: [float(v[0]), float(v[1])] for k, v in (d.get("geometry_domain") or {}).items()}
+        except (TypeError, ValueError, IndexError, AttributeError) as exc:
+            raise CorruptCalibration(f"{source}: geometry_domain not a valid box ({exc!r})") from None
+        if any(not (0 < lo <= hi) for lo, hi in gdomain.values()):
+            raise CorruptCalibration(f"{source}: geometry_domain bounds must satisfy 0 < low <= high")
         return cls(
             factors=factors,
             domain=domain,
+            geometry_domain=gdomain,
+            corners=dict(sections["corners"]),
             training=dict(sections["training"]),
             validation=dict(sections["validation"]),
             fe_settings=dict(sections["fe_settings"]),
@@ -128,9 +159,29 @@ class Calibration:
 
 DEFAULT_CALIBRATION = "default_calibration.json"
 
+#: The shipped calibration over geometry and moduli together (docs/lumped.md §3.13).
+GEOMETRY_CALIBRATION = "geometry_calibration.json"
+
 
 def default_calibration() -> Calibration:
     """The calibration that ships with the package."""
     ref = resources.files("isj.lumped") / "data" / DEFAULT_CALIBRATION
     d = json.loads(ref.read_text())
     return Calibration.from_dict(d, source="default calibration")
+
+
+def geometry_calibration() -> Calibration:
+    """The shipped calibration over geometry and moduli (``geometry_domain``), for other geometries."""
+    ref = resources.files("isj.lumped") / "data" / GEOMETRY_CALIBRATION
+    d = json.loads(ref.read_text())
+    return Calibration.from_dict(d, source="geometry calibration")
+
+
+def calibration_for(geometry=None) -> Calibration:
+    """The shipped calibration for ``geometry``: the default one for the default geometry
+    (or None), the geometry calibration (:func:`geometry_calibration`) for any other."""
+    from isj.design import Geometry
+
+    if geometry is None or geometry == Geometry():
+        return default_calibration()
+    return geometry_calibration()

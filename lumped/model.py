@@ -124,6 +124,12 @@ class Lever:
             bulk=1 / (jy * jx**2),
         )
 
+    @classmethod
+    def from_geometries(cls, geometries) -> Lever:
+        """The constants of many geometries at once: one array (over the geometries) per field."""
+        levers = [cls.from_geometry(g) for g in geometries]
+        return cls(**{f: np.array([getattr(lv, f) for lv in levers]) for f in cls.__dataclass_fields__})
+
 
 def equations(E, factors, lever: Lever):
     """α and β per pascal (rad/Pa) from moduli ``E`` (Pa) and the calibrated factors.
