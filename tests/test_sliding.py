@@ -182,9 +182,13 @@ def test_seven_cases_bonded_against_sliding(coarse_model, sliding_model, layer_m
             if j == "b":
                 assert 0.05 < split["capsule_shear_share"] < 0.6
         assert w["s"] > w["b"] and w["l"] > w["b"]
-        # the joint's rotation is carried by normal stress: sliding moves α, β by little
-        assert res["s"].alpha_rad == pytest.approx(res["b"].alpha_rad, rel=0.03)
-        assert res["s"].beta_rad == pytest.approx(res["b"].beta_rad, rel=0.01)
+        # a freed joint rotates more (the bodies' rotations), so β/α falls ...
+        b, s_ = res["b"], res["s"]
+        assert s_.alpha_ls_rad > b.alpha_ls_rad
+        assert s_.beta_ls_rad / s_.alpha_ls_rad < b.beta_ls_rad / b.alpha_ls_rad
+        # ... but little: the moment is carried by normal stress, which the interface still transmits
+        assert s_.alpha_rad == pytest.approx(b.alpha_rad, rel=0.03)
+        assert s_.beta_rad == pytest.approx(b.beta_rad, rel=0.01)
         # the layer frees the gap's shear on both faces: a softer joint, a smaller β/α
         assert res["l"].alpha_rad > res["b"].alpha_rad and res["l"].ratio < res["b"].ratio
         rise[case.name] = w["s"] / w["b"]
