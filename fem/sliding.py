@@ -158,7 +158,13 @@ class TiedReduction:
         )
 
     def restrict(self, f: np.ndarray) -> np.ndarray:
+        """Tᵀ f: the reduced load (a slave's force adds to its master's). For loads only:
+        a displacement's reduced coordinates are :meth:`coordinates`."""
         return self.T.T @ f
+
+    def coordinates(self, u: np.ndarray) -> np.ndarray:
+        """q with T q = u for a displacement ``u`` that satisfies the ties and the clamps."""
+        return u[self.free]
 
     def expand(self, u_free: np.ndarray) -> np.ndarray:
         return self.T @ u_free
