@@ -255,7 +255,6 @@ class Guard:
     surrogate: dict
     time_s: float
     seed: int = 0
-    load_time_s: float = 0.0
 
     def summary(self, confirmed: list[dict] | None = None) -> dict:
         """JSON-able: per set its counts and worst design, the corners in full, FE confirmations."""
@@ -270,7 +269,6 @@ class Guard:
             "dense_seed": self.seed,
             "surrogate": self.surrogate,
             "time_s": self.time_s,
-            "load_time_s": self.load_time_s,
             **{name: s.summary() for name, s in self.sets.items()},
             "corner_rows": [corners.row(i) for i in range(corners.n)],
             "fe_confirmations": confirmed or [],

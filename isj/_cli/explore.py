@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import itertools
 import sys
+import time
 
 from isj.design import Materials
 from isj.errors import UsageError
@@ -153,7 +154,9 @@ def explore(args) -> int:
         )
     designs = explore_designs(space, args.n, args.sample, args.seed)
     settings = fe_settings(order=args.order, resolution=args.resolution, pressure_pa=args.pressure)
+    t0 = time.perf_counter()
     rom, why = _surrogate(args) if guarded else (None, "--no-guard")
+    t_load = time.perf_counter() - t0
     if rom is None and guarded:
         print(f"isj: warning: {why}; the lumped model is NOT guarded (FE spot checks only)", file=sys.stderr)
     ex = run(cal, designs, args.spot_checks, evaluate_design, settings, fe_cache_dir(args.cache),
@@ -179,6 +182,8 @@ def explore(args) -> int:
     # what fails the run: an explored design's spot check or guard, or FE outside the surrogate's bound
     n_failed = sum(not ck["passed"] for ck in checks if ck["set"] == "explored")
     g = ex.guard.summary(ex.confirmations) if ex.guard is not None else {"available": False, "reason": why}
+    if ex.guard is not None:
+        g["surrogate_load_time_s"] = t_load  # from the cache, or the first build for this mesh
     n_guard_failed = g["explored"]["n_fail"] if ex.guard is not None else 0
     n_unconfirmed = sum(not r["confirmed"] for r in ex.confirmations)
     summary = {
