@@ -18,6 +18,7 @@ frequency, and checked against the FE ear by the report and ``benchmarks/transmi
 from __future__ import annotations
 
 from dataclasses import dataclass
+from dataclasses import replace as dataclasses_replace
 
 import numpy as np
 
@@ -161,7 +162,8 @@ def load_path(ear: LumpedEar, freq_hz=(0.0,)) -> dict:
       resisted that force (the isolated model's situation);
     - ``k_joint``, ``k_env``: (n,) complex stiffness along the actual motion q,
       q̂ᴴ Z q̂ (N·m/rad), of the joint and of the environment, and ``env_ratio`` = |k_env| / |k_joint|;
-    - ``k_joint_beta``, ``k_env_beta``: (n,) the ββ entries (N·m/rad).
+    - ``k_joint_beta``, ``k_env_beta``: (n,) the ββ entries (N·m/rad);
+    - ``k_env_matrix``: (n, 2, 2) Z_env itself.
     """
     if ear.joint is None:
         raise InvalidParameter("load_path: the ear has a rigid joint; there is no joint to load")
@@ -172,7 +174,8 @@ def load_path(ear: LumpedEar, freq_hz=(0.0,)) -> dict:
     r = [i for i in range(len(ear.coordinates)) if i not in j]
     Kj, Ej, Lj = ear.joint
     B = ear.system.B[:, 0]
-    out = {k: [] for k in ("q", "force", "q_force_driven", "k_joint", "k_env", "k_joint_beta", "k_env_beta")}
+    keys = ("q", "force", "q_force_driven", "k_joint", "k_env", "k_joint_beta", "k_env_beta", "k_env_matrix")
+    out = {k: [] for k in keys}
     for fi in f:
         w = 2 * np.pi * fi
         D = _dynamic(ear, w)
@@ -190,6 +193,7 @@ def load_path(ear: LumpedEar, freq_hz=(0.0,)) -> dict:
         out["k_env"].append(u.conj() @ Ze @ u)
         out["k_joint_beta"].append(Zj[1, 1])
         out["k_env_beta"].append(Ze[1, 1])
+        out["k_env_matrix"].append(Ze)
     res = {k: np.array(v) for k, v in out.items()}
     res["freq_hz"] = f
     res["env_ratio"] = np.abs(res["k_env"]) / np.abs(res["k_joint"])
@@ -230,3 +234,44 @@ def pedicle_sensitivity(
         "isolated_alpha": float(np.diff(np.log(st.alpha_rad))[0] / (2 * step)),
         "isolated_beta": float(np.diff(np.log(st.beta_rad))[0] / (2 * step)),
     }
+
+
+def thevenin_sensitivity(
+    freq_hz,
+    *,
+    model=None,
+    base: Materials | None = None,
+    step: float = 0.05,
+    drum_modes: int | None = ALL_DRUM_MODES,
+    **ear_options,
+) -> dict:
+    """β's sensitivity to the pedicle as the Thévenin picture predicts it, ear and force-driven.
+
+    With the environment's Z_env and force f₀ held, a change dZ_joint of the joint's own dynamic
+    stiffness (central differences in ln E_pedicle) moves the angles by dq = −S⁻¹ dZ_joint q
+    (S = Z_joint + Z_env); held by nothing but the joint (Z_env = 0) by −Z_joint⁻¹ dZ_joint q_f.
+    Returns ``ear_beta`` and ``force_driven_beta`` (n_freq,), Re(dβ/β) per unit ln E; the first
+    matches :func:`pedicle_sensitivity` where the pedicle's modulus changes only Z_joint (the
+    coupling's kinematics move with it too, which the difference measures).
+    """
+    from .api import LumpedModel
+
+    f = check_frequencies(freq_hz)
+    lm = model or LumpedModel.default()
+    base = base or Materials()
+    ears = [
+        lm.ear(dataclasses_replace(base, pedicle_e_pa=base.pedicle_e_pa * np.exp(s)), drum_modes=drum_modes,
+               **ear_options)
+        for s in (-step, 0.0, step)
+    ]  # fmt: skip
+    lp = load_path(ears[1], f)
+    out = {"freq_hz": f, "ear_beta": [], "force_driven_beta": []}
+    for i, fi in enumerate(f):
+        w = 2 * np.pi * fi
+        Z = [K + 1j * L + 1j * w * E for K, E, L in (e.joint for e in ears)]
+        dZ = (Z[2] - Z[0]) / (2 * step)
+        S = Z[1] + (lp["k_env_matrix"][i])
+        q, qf = lp["q"][i], lp["q_force_driven"][i]
+        out["ear_beta"].append((-np.linalg.solve(S, dZ @ q)[1] / q[1]).real)
+        out["force_driven_beta"].append((-np.linalg.solve(Z[1], dZ @ qf)[1] / qf[1]).real)
+    return {k: np.asarray(v) for k, v in out.items()}

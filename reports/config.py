@@ -28,6 +28,7 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import ClassVar
 
+from isj.cases import THESIS_CASES
 from isj.design import DEFAULT_PRESSURE_PA, Geometry, InvalidParameter, Materials
 from isj.ear import EarMaterials
 from isj.errors import ConfigError  # noqa: F401 - re-exported, its old home
@@ -169,6 +170,47 @@ class SweepConfig:
 
 
 @dataclass(frozen=True)
+class TransmissionConfig:
+    """The FE whole ear over a band, per thesis case and rigid (docs/transmission.md).
+
+    Each case in ``cases`` gets its own reduced FE ear (:func:`isj.fem.ear.ear_sweep.reduced_ear`,
+    about 35 s on 2 cores at the default mesh) beside the rigid incus–stapes connection;
+    ``fe_checks`` direct harmonic solves of the first case, the highest at ``fmax_hz``, check
+    the reduction. The damping is the ``[sweep]`` section's.
+    """
+
+    fmin_hz: float = 100.0
+    fmax_hz: float = 20e3
+    n_freq: int = 200
+    cases: tuple[str, ...] = ("base", "j5", "c20", "c100", "j5c20", "p12", "p3")
+    fe_checks: int = 2
+
+
+#: ``isj uq``'s ranges (isj.calibration.uq_inputs; a test checks they are the same), here so
+#: that the configuration does not import the lumped model (step cache keys follow imports).
+UQ_RANGES = {
+    "samples": (1_000, 10_000_000),
+    "sobol_samples": (2**6, 2**18),
+    "bootstrap": (10, 10_000),
+    "seed": (0, 2**32 - 1),
+}
+
+
+@dataclass(frozen=True)
+class UQReportConfig:
+    """The moduli's uncertainty on the lumped model (docs/uq.md §11.7): counts and seed.
+
+    The distributions are ``isj uq``'s defaults: log-uniform over the calibration's domain,
+    the incus fixed (docs/uq.md §11.2); ``isj uq --config`` takes others.
+    """
+
+    samples: int = 1_000_000
+    sobol_samples: int = 2**14
+    bootstrap: int = 100
+    seed: int = 0
+
+
+@dataclass(frozen=True)
 class ReportConfig:
     """Everything ``isj report`` computes from; ``geometry`` in metres (docs/model.md §2.2).
 
@@ -184,6 +226,8 @@ class ReportConfig:
     calibration: CalibrationConfig = field(default_factory=CalibrationConfig)
     sweep: SweepConfig = field(default_factory=SweepConfig)
     ear: EarMaterials = field(default_factory=EarMaterials)
+    transmission: TransmissionConfig = field(default_factory=TransmissionConfig)
+    uq: UQReportConfig = field(default_factory=UQReportConfig)
 
     def to_dict(self) -> dict[str, dict]:
         return {f.name: _section_dict(getattr(self, f.name)) for f in fields(self)}
@@ -308,6 +352,24 @@ def _check(cfg: ReportConfig) -> None:
     need(0 <= s.fe_checks <= 20, "sweep.fe_checks", s.fe_checks, "must be in [0, 20]")
     # the damping's values were checked by isj.damping.Damping when the section was resolved
     need(1 <= s.n_modes <= 30, "sweep.n_modes", s.n_modes, "must be in [1, 30]")
+    t = cfg.transmission
+    need(t.fmin_hz > 0, "transmission.fmin_hz", t.fmin_hz, "must be > 0 (Hz)")
+    need(t.fmin_hz < t.fmax_hz <= 24e3, "transmission.fmax_hz", t.fmax_hz,
+         f"must be in ({t.fmin_hz:g}, 24000] Hz (the drum's shipped modes reach 24.9 kHz)")  # fmt: skip
+    need(2 <= t.n_freq <= 2000, "transmission.n_freq", t.n_freq, "must be in [2, 2000]")
+    need(0 <= t.fe_checks <= 5, "transmission.fe_checks", t.fe_checks, "must be in [0, 5]")
+    names = [c.name for c in THESIS_CASES]
+    for c in t.cases:
+        need(c in names, "transmission.cases", c, f"each must be one of {', '.join(names)}")
+    need(len(set(t.cases)) == len(t.cases), "transmission.cases", list(t.cases), "must not repeat")
+    u = cfg.uq
+    for key, (lo, hi) in UQ_RANGES.items():
+        v = getattr(u, key)
+        need(lo <= v <= hi, f"uq.{key}", v, f"must be in [{lo}, {hi}]")
+    n = u.sobol_samples
+    need(n & (n - 1) == 0, "uq.sobol_samples", n, "must be a power of 2 (Sobol' balance), e.g. 16384")
+    need(n * u.bootstrap <= 2**24, "uq.sobol_samples x uq.bootstrap", n * u.bootstrap,
+         "must be <= 16777216 (memory of SALib's bootstrap)")  # fmt: skip
 
 
 def parse_override(text: str) -> tuple[str, str, object]:

@@ -109,6 +109,26 @@ def _ear(res: dict) -> dict[str, str]:
     return {"ear.csv": _csv("whole ear, static, per Pa of ear-canal pressure (m/Pa, rad/Pa)", cols, rows)}
 
 
+def _transmission(res: dict, arr: dict) -> dict[str, str]:
+    f, cases = arr["freq_hz"], res["cases"]
+    cols, data = ["freq_hz"], [f]
+    for name in ["rigid", *cases]:
+        v = arr[f"{name}_stapes_velocity_m_s"]
+        cols += [f"{name}_stapes_velocity_re_m_s_per_pa", f"{name}_stapes_velocity_im_m_s_per_pa"]
+        data += [v.real, v.imag]
+    for k, name in enumerate(cases):
+        d = arr["delta"][:, k]
+        cols += [f"{name}_delta_hv_db", f"{name}_delta_hv_deg", f"{name}_pedicle_share_abs"]
+        data += [20 * np.log10(np.abs(d)), np.degrees(np.angle(d)), np.abs(arr["pedicle_share"][:, k])]
+    return {
+        "transmission.csv": _csv(
+            "FE whole ear: stapes velocity per ear-canal pressure H_V (m/s/Pa) and dH_V = H_V / H_V,rigid",
+            cols,
+            zip(*data, strict=True),
+        )
+    }
+
+
 def tables(step: str, res: dict, arr: dict) -> dict[str, str]:
     """File name → CSV text for one step's result."""
     if step == "cases":
@@ -123,4 +143,6 @@ def tables(step: str, res: dict, arr: dict) -> dict[str, str]:
         return _sweep(res, arr)
     if step == "ear":
         return _ear(res)
+    if step == "transmission":
+        return _transmission(res, arr)
     return {}

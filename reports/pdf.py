@@ -12,6 +12,8 @@ from __future__ import annotations
 from .layout import A4, MONO, new_page, pct, ratio, urad  # noqa: F401 - the tests use the formats
 from .pages_dynamic import calibration_page, convergence_page, ear_page, sweep_page
 from .pages_static import cases_page, energy_page, model_page, title_page, trends_page
+from .pages_transmission import delta_page, hv_page
+from .uq import uq_page
 
 #: Page titles, in order; the tests look for them in the PDF's text.
 PAGE_TITLES = (
@@ -24,6 +26,9 @@ PAGE_TITLES = (
     "6. Calibration of the lumped model",
     "7. Frequency response",
     "8. The whole middle ear",
+    "9. Sound transmission through the whole ear",
+    "10. What the pedicle and the joint cost transmission",
+    "11. Uncertainty of the moduli",
 )
 
 
@@ -46,6 +51,10 @@ def build_pages(config, results: dict, arrays: dict, provenance: dict):
         lambda f: calibration_page(f, results["calibration"]),
         lambda f: sweep_page(f, results["sweep"], arrays["sweep"]),
         lambda f: ear_page(f, results["ear"], arrays["ear"], results["cases"]),
+        lambda f: hv_page(f, results["transmission"], arrays["transmission"]),
+        lambda f: delta_page(f, results["transmission"], arrays["transmission"], results["load_path"],
+                             arrays["load_path"]),
+        lambda f: uq_page(f, results["uq"], results["uq"]["histograms"]),
     )
     for i, (title, build) in enumerate(zip(PAGE_TITLES, builders, strict=True), 1):
         fig = new_page(title, i, total, footer)

@@ -22,6 +22,8 @@ from isj.calibration.checks import STATIC_KEYS, static_row
 from isj.cases import THESIS_BASE_ALPHA_RAD, THESIS_BASE_BETA_RAD, THESIS_CASES
 
 from .config import ReportConfig
+from .transmission_step import load_path_step, transmission_step
+from .uq import uq_step
 
 
 @dataclass
@@ -379,6 +381,9 @@ STEPS = (
     ("calibration", calibration_step, ("design", "geometry", "mesh", "calibration")),
     ("sweep", sweep_step, ("design", "geometry", "mesh", "sweep")),
     ("ear", ear_step, ("design", "geometry", "mesh", "ear")),
+    ("transmission", transmission_step, ("design", "geometry", "mesh", "ear", "sweep", "transmission")),
+    ("load_path", load_path_step, ("design", "geometry", "ear", "sweep", "transmission")),
+    ("uq", uq_step, ("design", "geometry", "uq")),
 )
 
 
@@ -409,14 +414,20 @@ def step_modules(ctx: Context, step=None) -> tuple[str, ...]:
     :mod:`isj.lumped.artifact`). Found through the import system (:mod:`isj.digest`).
     """
     import inspect
+    import sys
 
     from isj import digest
 
-    imported = digest.top_level_names(__name__)  # e.g. static_row → isj.calibration.checks
-    here = {n: f for n, f in globals().items() if inspect.isfunction(f) and f.__module__ == __name__}
+    steps = [fn for _, fn, _ in STEPS] if step is None else [step]
+    imported, here = {}, {}
+    # this module's names and helpers, and those of every module a step lives in
+    # (reports.transmission_step's fe_band, which imports the FE ear)
+    for mod in {__name__, *(fn.__module__ for fn in steps if fn.__module__.startswith("isj."))}:
+        imported |= digest.top_level_names(mod)  # e.g. static_row → isj.calibration.checks
+        ns = vars(sys.modules[mod])
+        here |= {n: f for n, f in ns.items() if inspect.isfunction(f) and f.__module__ == mod}
     members = {n: m for n, m in vars(Context).items() if inspect.isfunction(m) or isinstance(m, property)}
     held = {f.name: type(getattr(ctx, f.name)).__module__ for f in dataclasses.fields(ctx)}
-    steps = [fn for _, fn, _ in STEPS] if step is None else [step]
     return digest.closure(digest.function_imports(*steps, follow=imported | here | members | held))
 
 

@@ -1,7 +1,7 @@
 """The uncertainty page: histograms of α, β and β/α, Sobol' bars with intervals, P(β/α > 1).
 
-Draws what :func:`isj.calibration.uq.run_uq` found; no computation beyond unit scaling. Two ways
-in:
+Draws what :func:`isj.calibration.uq.run_uq` found; :func:`uq_step` is the report's step that
+runs it on the report's lumped model. Two ways in:
 
 - :func:`uq_page` ``(fig, uq, histograms)`` with the JSON of ``isj uq`` (``UQResult.to_dict()``)
   and ``UQResult.histogram_dict()``, for the report's pipeline (a page from
@@ -126,3 +126,22 @@ def uq_figure(result, title: str = "Uncertainty of the moduli: alpha, beta and b
     fig.text(0.07, 0.965, title, fontsize=15, weight="bold", va="top")
     uq_page(fig, result.to_dict(), result.histogram_dict())
     return fig
+
+
+def uq_step(ctx) -> tuple[dict, dict]:
+    """The moduli's uncertainty carried to α, β and β/α on the lumped model (docs/uq.md §11)."""
+    from isj.calibration.uq import lumped_evaluator, run_uq
+    from isj.calibration.uq_inputs import UQConfig
+    from isj.lumped.api import LumpedModel
+
+    cfg, u = ctx.config, ctx.config.uq
+    lm = LumpedModel(ctx.calibration, cfg.geometry)
+    domain = dict(ctx.calibration.domain)
+    config = UQConfig.default(domain, samples=u.samples, sobol_samples=u.sobol_samples,
+                              bootstrap=u.bootstrap, seed=u.seed)  # fmt: skip
+    r = run_uq(config, lumped_evaluator(lm, cfg.design.pressure_pa), pressure_pa=cfg.design.pressure_pa,
+               domain=domain)  # fmt: skip
+    out = r.to_dict()
+    out.pop("time_s")  # the same inputs give the same JSON
+    out["top_total"] = {k: r.top_total(k) for k in ("alpha_rad", "beta_rad", "beta_over_alpha")}
+    return out | {"histograms": r.histogram_dict()}, {}

@@ -53,7 +53,7 @@ def test_each_report_step_depends_on_the_lumped_model_exactly_when_it_uses_it():
 
     cfg = ReportConfig()
     ctx = Context(cfg, load_calibration(cfg), Path("unused"))
-    uses_lumped = {"cases", "trends", "calibration", "sweep"}
+    uses_lumped = {"cases", "trends", "calibration", "sweep", "load_path", "uq"}
     for name, fn, _ in STEPS:
         mods = step_modules(ctx, fn)
         lumped = {m for m in mods if m.startswith("isj.lumped")}
@@ -65,6 +65,7 @@ def test_each_report_step_depends_on_the_lumped_model_exactly_when_it_uses_it():
     assert {"isj.fem.batch", "isj.fem.quality"} <= by_name["model"]
     assert "isj.fem.convergence" in by_name["convergence"]
     assert "isj.fem.ear.middle_ear" in by_name["ear"]
+    assert "isj.fem.ear.ear_sweep" in by_name["transmission"]
     assert "isj.lumped.dynamics" in by_name["sweep"]
     assert "isj.lumped.artifact" in by_name["calibration"]  # the calibration object's own code
 
@@ -131,7 +132,7 @@ def test_changed_lumped_equation_recomputes_the_steps_that_use_it(report, tmp_pa
     assert Path(got["lumped_file"]).is_relative_to(site)  # the changed copy is what ran
 
     # the FE-only steps: same keys from a copy of the same code elsewhere, so cached
-    assert sorted(got["cached"]) == ["convergence", "ear", "model"]
+    assert sorted(got["cached"]) == ["convergence", "ear", "model", "transmission"]
     # the lumped steps ran the changed equation: β × 1.25, α and every FE number unchanged
     before = report["second"]["steps"]["cases"]["rows"]
     after = got["cases"]["rows"]

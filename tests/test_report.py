@@ -27,13 +27,14 @@ def test_interrupted_run_writes_no_pdf_and_resumes_from_the_finished_steps(repor
     assert not report["pdf_after_interrupt"]
     # every step but the interrupted one came from the cache
     steps = ["model", "cases", "trends", "convergence", "calibration", "sweep", "ear"]
+    steps += ["transmission", "load_path", "uq"]
     assert report["first"]["cached"] == steps[: steps.index("sweep")]  # the ear never ran before
     assert report["second"]["cached"] == steps
 
 
 def test_pdf_has_the_pages_in_order(report):
     texts = _pages_text(report["dir"] / "report.pdf")
-    assert len(texts) == len(pdf.PAGE_TITLES) == 9
+    assert len(texts) == len(pdf.PAGE_TITLES) == 12
     for text, title in zip(texts, pdf.PAGE_TITLES, strict=True):
         assert title in text
 
@@ -125,8 +126,9 @@ def test_every_figure_has_data(report):
             finite += [p.get_window_extent().width * p.get_window_extent().height > 0 for p in ax.patches]
             assert any(finite), f"empty axes on page {title!r}: {ax.get_title() or ax.get_ylabel()}"
         plt.close(fig)
-    # model (2), cases (2), trends (2 x 3), energy (1), convergence (1), calibration (6), sweep (2), ear (1)
-    assert n_axes == 2 + 2 + 6 + 1 + 1 + 6 + 2 + 1
+    # model (2), cases (2), trends (2 x 3), energy (1), convergence (1), calibration (6), sweep (2), ear (1),
+    # H_V (3), dH_V (3: one case, so no pedicle-or-joint ratio panel), uncertainty (3 + 3)
+    assert n_axes == 2 + 2 + 6 + 1 + 1 + 6 + 2 + 1 + 3 + 3 + 6
 
 
 def test_data_files_and_resolved_config(report):
@@ -212,5 +214,69 @@ def test_toml_round_trip_of_every_default():
 
     cfg = ReportConfig()
     data = tomllib.loads(cfg.to_toml())
-    assert set(data) == {"design", "geometry", "mesh", "trends", "convergence", "calibration", "sweep", "ear"}
+    assert set(data) == {"design", "geometry", "mesh", "trends", "convergence", "calibration", "sweep", "ear",
+                         "transmission", "uq"}
     assert math.isclose(data["design"]["pedicle_e_pa"], cfg.design.pedicle_e_pa)
+
+
+def test_transmission_pages_carry_the_fe_ear_over_the_band(report):
+    """ΔH_V from the reduced FE ear: its direct check, its low-frequency limit, its CSV."""
+    data = report["dir"] / "data"
+    tr = json.loads((data / "transmission.json").read_text())
+    ear = json.loads((data / "ear.json").read_text())
+    assert tr["cases"] == ["p12"]
+    chk = tr["fe_checks"]
+    assert chk["passed"] and chk["max_mag_rel_error"] < 0.01 and chk["max_phase_error_deg"] < 1.0
+    assert [c["freq_hz"] for c in chk["checks"]] == [20000.0]
+    # at 100 Hz ΔH_V is the static FE ear's ratio of footplate pistons (independent solves), up to
+    # the joint's loss factors (complex moduli; measured 0.01 dB)
+    static = {c["case"]: c["footplate_piston_m_per_pa"] for c in ear["cases"]}
+    ratio_db = 20 * math.log10(static["p12"] / ear["rigid_joint"]["footplate_piston_m_per_pa"])
+    lines = (data / "transmission.csv").read_text().splitlines()
+    cols = lines[1].split(",")
+    first = dict(zip(cols, map(float, lines[2].split(",")), strict=True))
+    assert first["freq_hz"] == 100.0 and len(lines) == 2 + 40
+    assert first["p12_delta_hv_db"] == pytest.approx(ratio_db, abs=0.03)
+    # H_V at 100 Hz, far below the first mode (1.7 kHz), is stiffness-controlled: ω times the static
+    # piston, lowered by the complex moduli by at most 1/sqrt(1 + η²) of the largest loss factor
+    # (0.3), raised by inertia by at most 1/(1 - (0.1/1.7)²) (measured: 2.0 % low)
+    v = math.hypot(first["rigid_stapes_velocity_re_m_s_per_pa"], first["rigid_stapes_velocity_im_m_s_per_pa"])
+    static = 2 * math.pi * 100 * ear["rigid_joint"]["footplate_piston_m_per_pa"]
+    eta = max(tr["damping"]["loss_factor"].values())
+    assert static / math.sqrt(1 + eta**2) <= v <= static / (1 - (0.1 / 1.7) ** 2)
+    texts = _pages_text(report["dir"] / "report.pdf")
+    assert "dH_V = H_V / H_V,rigid" in texts[10]
+    assert f"{tr['quote'][0]['delta_db']['p12']:+7.2f}dB" in texts[10]
+
+
+def test_uq_page_carries_the_probability_and_the_indices(report):
+    """The report's uncertainty step is isj uq's computation on the report's lumped model."""
+    from isj.calibration.uq import run_uq
+    from isj.calibration.uq_inputs import UQConfig
+
+    uq = json.loads((report["dir"] / "data" / "uq.json").read_text())
+    assert uq["samples"] == 20000 and uq["sobol_samples"] == 512
+    direct = run_uq(UQConfig.default(samples=20000, sobol_samples=512, bootstrap=20))
+    # the same draws on the same (shipped) calibration give the same count, bit for bit
+    assert uq["n_beta_over_alpha_gt_1"] == direct.n_beta_over_alpha_gt_1
+    lo, hi = uq["p_beta_over_alpha_gt_1_ci"]
+    assert lo <= uq["p_beta_over_alpha_gt_1"] <= hi
+    texts = _pages_text(report["dir"] / "report.pdf")
+    assert f"P(beta/alpha > 1) = {uq['p_beta_over_alpha_gt_1']:.4f}" in texts[11]
+
+
+def test_uq_section_has_isj_uq_ranges():
+    """The report checks [uq] with isj uq's own ranges, before anything runs."""
+    from isj.calibration import uq_inputs as ui
+    from isj.reports.config import UQ_RANGES
+
+    assert UQ_RANGES == {
+        "samples": ui.SAMPLES_RANGE,
+        "sobol_samples": ui.SOBOL_SAMPLES_RANGE,
+        "bootstrap": ui.BOOTSTRAP_RANGE,
+        "seed": ui.SEED_RANGE,
+    }
+    assert ui.MAX_BOOTSTRAP_DRAWS == 2**24
+    for bad, word in (("uq.sobol_samples=1000", "power of 2"), ("uq.samples=10", "uq.samples")):
+        with pytest.raises(ConfigError, match=word):
+            load_config(overrides=[bad])
