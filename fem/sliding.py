@@ -304,8 +304,13 @@ def compare_cases(
     pressure_pa: float = DEFAULT_PRESSURE_PA,
     layer_shear_pa: float = DEFAULT_LAYER_SHEAR_PA,
     cache_dir=None,
+    geometry=None,
+    base: Materials | None = None,
 ) -> list[dict]:
     """The seven thesis cases for each joint: one row per (case, joint), cases in thesis order.
+
+    ``geometry`` (default :class:`isj.design.Geometry`) and ``base`` (the moduli the cases do not
+    set; default :class:`isj.design.Materials` with ``nu``) as the other FE commands take them.
 
     Keys: ``case``, ``joint``, ``alpha_rad``, ``beta_rad``, ``alpha_plus_beta_rad``,
     ``beta_over_alpha`` (point pairs, as the thesis), ``alpha_ls_rad``, ``beta_ls_rad``
@@ -317,13 +322,14 @@ def compare_cases(
 
     from .model import PedicleJointModel
 
-    base = Materials(nu=nu)
+    base = base or Materials(nu=nu)
     models = {
         j: PedicleJointModel(
-            order=order, resolution=resolution, joint=j, layer_shear_pa=layer_shear_pa, cache_dir=cache_dir
+            geometry, order=order, resolution=resolution, joint=j, layer_shear_pa=layer_shear_pa,
+            cache_dir=cache_dir,
         )
         for j in joints
-    }
+    }  # fmt: skip
     rows = []
     for case in THESIS_CASES:
         for j, model in models.items():

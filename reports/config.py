@@ -186,6 +186,19 @@ class TransmissionConfig:
     fe_checks: int = 2
 
 
+@dataclass(frozen=True)
+class SlidingConfig:
+    """The seven thesis cases with the joint bonded and sliding (docs/model.md §2.12).
+
+    ``joints`` among ``bonded``, ``sliding`` (a frictionless gap–plate face) and ``layer`` (a
+    gap of low through-thickness shear modulus ``layer_shear_pa``, Pa, an estimate). On the
+    report's mesh, geometry and design.
+    """
+
+    joints: tuple[str, ...] = ("bonded", "sliding")
+    layer_shear_pa: float = 1e3
+
+
 #: ``isj uq``'s ranges (isj.calibration.uq_inputs; a test checks they are the same), here so
 #: that the configuration does not import the lumped model (step cache keys follow imports).
 UQ_RANGES = {
@@ -227,6 +240,7 @@ class ReportConfig:
     sweep: SweepConfig = field(default_factory=SweepConfig)
     ear: EarMaterials = field(default_factory=EarMaterials)
     transmission: TransmissionConfig = field(default_factory=TransmissionConfig)
+    sliding: SlidingConfig = field(default_factory=SlidingConfig)
     uq: UQReportConfig = field(default_factory=UQReportConfig)
 
     def to_dict(self) -> dict[str, dict]:
@@ -362,6 +376,14 @@ def _check(cfg: ReportConfig) -> None:
     for c in t.cases:
         need(c in names, "transmission.cases", c, f"each must be one of {', '.join(names)}")
     need(len(set(t.cases)) == len(t.cases), "transmission.cases", list(t.cases), "must not repeat")
+    sl = cfg.sliding
+    for j in sl.joints:
+        need(j in ("bonded", "sliding", "layer"), "sliding.joints", j,
+             'each must be "bonded", "sliding" or "layer"')  # fmt: skip
+    need(len(set(sl.joints)) == len(sl.joints), "sliding.joints", list(sl.joints), "must not repeat")
+    need("bonded" in sl.joints, "sliding.joints", list(sl.joints), 'must include "bonded" (the reference)')
+    g = sl.layer_shear_pa
+    need(1.0 <= g <= 1e9, "sliding.layer_shear_pa", g, "must be in [1, 1e9] Pa")
     u = cfg.uq
     for key, (lo, hi) in UQ_RANGES.items():
         v = getattr(u, key)

@@ -145,4 +145,10 @@ def tables(step: str, res: dict, arr: dict) -> dict[str, str]:
         return _ear(res)
     if step == "transmission":
         return _transmission(res, arr)
+    if step == "sliding":
+        keys = ["alpha_rad", "beta_rad", "beta_over_alpha", "capsule_shear_share", "capsule_moment_share",
+                "strain_energy_j"]  # fmt: skip
+        rows = [[r["case"], r["joint"]] + [r[k] for k in keys] for r in res["rows"]]
+        head = "seven thesis cases, bonded and sliding joint (FE)"
+        return {"sliding.csv": _csv(head, ["case", "joint", *keys], rows)}
     return {}

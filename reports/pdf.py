@@ -13,6 +13,7 @@ from .layout import A4, MONO, new_page, pct, ratio, urad  # noqa: F401 - the tes
 from .pages_dynamic import calibration_page, convergence_page, ear_page, sweep_page
 from .pages_static import cases_page, energy_page, model_page, title_page, trends_page
 from .pages_transmission import delta_page, hv_page
+from .sliding import sliding_page
 from .uq import uq_page
 
 #: Page titles, in order; the tests look for them in the PDF's text.
@@ -28,7 +29,8 @@ PAGE_TITLES = (
     "8. The whole middle ear",
     "9. Sound transmission through the whole ear",
     "10. What the pedicle and the joint cost transmission",
-    "11. Uncertainty of the moduli",
+    "11. A sliding joint",
+    "12. Uncertainty of the moduli",
 )
 
 
@@ -54,6 +56,7 @@ def build_pages(config, results: dict, arrays: dict, provenance: dict):
         lambda f: hv_page(f, results["transmission"], arrays["transmission"]),
         lambda f: delta_page(f, results["transmission"], arrays["transmission"], results["load_path"],
                              arrays["load_path"]),
+        lambda f: sliding_page(f, results["sliding"]),
         lambda f: uq_page(f, results["uq"], results["uq"]["histograms"]),
     )
     for i, (title, build) in enumerate(zip(PAGE_TITLES, builders, strict=True), 1):

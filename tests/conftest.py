@@ -80,6 +80,7 @@ COARSE_REPORT = {
     "sweep": {"n_freq": 20, "fe_checks": 1, "n_modes": 3},
     "transmission": {"n_freq": 40, "cases": ["p12"], "fe_checks": 1},
     "uq": {"samples": 20000, "sobol_samples": 512, "bootstrap": 20},
+    "sliding": {"joints": ["bonded", "sliding"]},
 }
 
 

@@ -27,14 +27,14 @@ def test_interrupted_run_writes_no_pdf_and_resumes_from_the_finished_steps(repor
     assert not report["pdf_after_interrupt"]
     # every step but the interrupted one came from the cache
     steps = ["model", "cases", "trends", "convergence", "calibration", "sweep", "ear"]
-    steps += ["transmission", "load_path", "uq"]
+    steps += ["transmission", "load_path", "sliding", "uq"]
     assert report["first"]["cached"] == steps[: steps.index("sweep")]  # the ear never ran before
     assert report["second"]["cached"] == steps
 
 
 def test_pdf_has_the_pages_in_order(report):
     texts = _pages_text(report["dir"] / "report.pdf")
-    assert len(texts) == len(pdf.PAGE_TITLES) == 12
+    assert len(texts) == len(pdf.PAGE_TITLES) == 13
     for text, title in zip(texts, pdf.PAGE_TITLES, strict=True):
         assert title in text
 
@@ -127,8 +127,8 @@ def test_every_figure_has_data(report):
             assert any(finite), f"empty axes on page {title!r}: {ax.get_title() or ax.get_ylabel()}"
         plt.close(fig)
     # model (2), cases (2), trends (2 x 3), energy (1), convergence (1), calibration (6), sweep (2), ear (1),
-    # H_V (3), dH_V (3: one case, so no pedicle-or-joint ratio panel), uncertainty (3 + 3)
-    assert n_axes == 2 + 2 + 6 + 1 + 1 + 6 + 2 + 1 + 3 + 3 + 6
+    # H_V (3), dH_V (3: one case, so no pedicle-or-joint ratio panel), sliding (1), uncertainty (3 + 3)
+    assert n_axes == 2 + 2 + 6 + 1 + 1 + 6 + 2 + 1 + 3 + 3 + 1 + 6
 
 
 def test_data_files_and_resolved_config(report):
@@ -215,7 +215,7 @@ def test_toml_round_trip_of_every_default():
     cfg = ReportConfig()
     data = tomllib.loads(cfg.to_toml())
     assert set(data) == {"design", "geometry", "mesh", "trends", "convergence", "calibration", "sweep", "ear",
-                         "transmission", "uq"}
+                         "transmission", "sliding", "uq"}
     assert math.isclose(data["design"]["pedicle_e_pa"], cfg.design.pedicle_e_pa)
 
 
@@ -262,7 +262,7 @@ def test_uq_page_carries_the_probability_and_the_indices(report):
     lo, hi = uq["p_beta_over_alpha_gt_1_ci"]
     assert lo <= uq["p_beta_over_alpha_gt_1"] <= hi
     texts = _pages_text(report["dir"] / "report.pdf")
-    assert f"P(beta/alpha > 1) = {uq['p_beta_over_alpha_gt_1']:.4f}" in texts[11]
+    assert f"P(beta/alpha > 1) = {uq['p_beta_over_alpha_gt_1']:.4f}" in texts[12]
 
 
 def test_uq_section_has_isj_uq_ranges():
@@ -280,3 +280,21 @@ def test_uq_section_has_isj_uq_ranges():
     for bad, word in (("uq.sobol_samples=1000", "power of 2"), ("uq.samples=10", "uq.samples")):
         with pytest.raises(ConfigError, match=word):
             load_config(overrides=[bad])
+
+
+def test_sliding_page_carries_bonded_and_sliding_cases(report):
+    """The sliding step is fem.sliding's comparison on the report's mesh; releasing never stiffens."""
+    res = json.loads((report["dir"] / "data" / "sliding.json").read_text())
+    rows = {(r["case"], r["joint"]): r for r in res["rows"]}
+    assert len(rows) == 14
+    cases = json.loads((report["dir"] / "data" / "cases.json").read_text())
+    for row in cases["rows"]:
+        bonded, sliding = rows[row["case"], "bonded"], rows[row["case"], "sliding"]
+        # the bonded joint is the cases step's own FE solve, to the last bit of the JSON
+        assert bonded["alpha_rad"] == row["fe"]["alpha_rad"] and bonded["beta_rad"] == row["fe"]["beta_rad"]
+        # releasing the tangential constraint never lowers the compliance (energy = work / 2)
+        assert sliding["strain_energy_j"] >= bonded["strain_energy_j"] * (1 - 1e-12)
+        # with the gap's face free to slide, the capsule carries all of the shear
+        assert sliding["capsule_shear_share"] == pytest.approx(1.0, abs=1e-6)
+    texts = _pages_text(report["dir"] / "report.pdf")
+    assert "A sliding joint" in texts[11] and pdf.urad(rows["base", "sliding"]["alpha_rad"]) in texts[11]

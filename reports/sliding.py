@@ -1,0 +1,62 @@
+"""The report's sliding-joint step and page (docs/model.md §2.12): the seven cases bonded and sliding."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .layout import text_block, urad, wrap
+
+
+def sliding_step(ctx) -> tuple[dict, dict]:
+    """α, β, β/α and the capsule's share of the joint's shear, per case and joint (FE)."""
+    from isj.fem.sliding import compare_cases
+
+    cfg = ctx.config
+    rows = compare_cases(
+        order=cfg.mesh.order, resolution=cfg.mesh.resolution, joints=cfg.sliding.joints,
+        nu=cfg.design.nu, pressure_pa=cfg.design.pressure_pa, layer_shear_pa=cfg.sliding.layer_shear_pa,
+        geometry=cfg.geometry, base=cfg.design.materials(),
+    )  # fmt: skip
+    return {
+        "joints": list(cfg.sliding.joints),
+        "layer_shear_pa": cfg.sliding.layer_shear_pa,
+        "rows": rows,
+    }, {}
+
+
+def sliding_page(fig, res: dict):
+    joints = res["joints"]
+    by = {(r["case"], r["joint"]): r for r in res["rows"]}
+    cases = list(dict.fromkeys(r["case"] for r in res["rows"]))
+    ax = fig.add_axes([0.12, 0.66, 0.80, 0.24])
+    x = np.arange(len(cases))
+    w = 0.8 / len(joints)
+    for k, j in enumerate(joints):
+        ax.bar(x + (k - (len(joints) - 1) / 2) * w, [by[c, j]["beta_over_alpha"] for c in cases], w, label=j)
+    ax.set_xticks(x, cases, fontsize=7)
+    ax.set_ylabel("beta / alpha", fontsize=7)
+    ax.axhline(1.0, color="k", lw=0.6)
+    ax.legend(fontsize=7)
+    ax.tick_params(labelsize=7)
+    ax.set_title("beta / alpha of the seven thesis cases, bonded and sliding joint (FE)", fontsize=8)
+    head = (f"{'case':6} {'joint':8} {'alpha urad':>11} {'beta urad':>10} {'b/a':>7} {'capsule shear':>14} "
+            f"{'capsule moment':>15}")  # fmt: skip
+    lines = [head, "-" * len(head)]
+    for c in cases:
+        for j in joints:
+            r = by[c, j]
+            lines.append(
+                f"{c:6} {j:8} {urad(r['alpha_rad']):>11} {urad(r['beta_rad']):>10} "
+                f"{r['beta_over_alpha']:7.3f} {r['capsule_shear_share']:14.3f} "
+                f"{r['capsule_moment_share']:15.3f}"
+            )
+    text_block(fig, 0.07, 0.60, "\n".join(lines), fontsize=6.5)
+    note = (
+        "sliding: the gap's face against the plate is frictionless (normal displacement continuous, "
+        "tangential free; exact master-slave constraints). layer: the gap's through-thickness shear modulus "
+        f"lowered to {res['layer_shear_pa']:g} Pa (an estimate). The shares are the fractions of the joint's "
+        "shear force and bending moment that the capsule carries across a plane at the gap's mid-height; "
+        "the gap carries the rest. alpha and beta are the thesis's point-pair angles "
+        "(docs/model.md 2.4, 2.12)."
+    )
+    text_block(fig, 0.07, 0.60 - 0.0125 * (len(lines) + 2), wrap(note, 110), fontsize=7)
