@@ -113,10 +113,16 @@ def fit_factors(
             "ipopt": {"print_level": 0, "sb": "yes", "tol": 1e-12, "max_iter": max_iter},
         },
     )
-    start = np.log(INITIAL_FACTORS if x0 is None else np.asarray(x0, dtype=float))
+    start = np.log(INITIAL_FACTORS if x0 is None else np.asarray(x0, dtype=float)).copy()
     # bounds keep exp() finite: a factor that wants to vanish (a term the data
     # do not need) parks at e^-25 instead of running to -inf
-    sol = solver(x0=start, lbx=-LOG_BOUND, ubx=LOG_BOUND)
+    lbx, ubx = np.full(n, -LOG_BOUND), np.full(n, LOG_BOUND)
+    if not np.ndim(lever.root_plate):
+        # one geometry: the plate-bending term is proportional to the punch term, so the data
+        # cannot tell them apart; it stays at e^-25 (0) and the punch term carries both
+        i = FACTOR_NAMES.index("root_plate")
+        start[i] = lbx[i] = ubx[i] = -LOG_BOUND
+    sol = solver(x0=start, lbx=lbx, ubx=ubx)
     stats = solver.stats()
     if not stats.get("success", False):
         raise FitFailed(f"calibration fit failed: IPOPT {stats.get('return_status')}", dict(stats))

@@ -19,11 +19,12 @@ from isj.errors import CorruptCalibration  # noqa: F401 - re-exported, its old h
 
 from .model import FACTOR_NAMES
 
-FORMAT_VERSION = 3  # 2: the plate_support factor; 3: load_sharing (lumped.model)
+FORMAT_VERSION = 4  # 2: the plate_support factor; 3: load_sharing; 4: root_plate (lumped.model)
 
 #: Factors a file of an older format lacks, with the value that makes the current
-#: equations those of that format exactly.
-_ADDED_FACTORS = {2: {"load_sharing": 0.0}}
+#: equations those of that format exactly (on the default geometry, where every geometric
+#: scaling of lumped.model.GEOMETRY_EXPONENTS is 1).
+_ADDED_FACTORS = {2: {"load_sharing": 0.0, "root_plate": 0.0}, 3: {"root_plate": 0.0}}
 
 
 @dataclass(frozen=True)
