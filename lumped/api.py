@@ -27,7 +27,7 @@ import numpy as np
 from isj.design import DEFAULT_PRESSURE_PA, Geometry, InvalidParameter, Materials
 from isj.validate import check_frequencies
 
-from .artifact import Calibration, default_calibration
+from .artifact import Calibration, calibration_for, default_calibration
 from .dynamics import OUTPUTS, UNITS, SecondOrderModel, chain_model
 from .ear import LumpedEar, ear_model
 from .model import MODULI, StaticResponse, moduli_arrays, static_response
@@ -116,8 +116,10 @@ class LumpedModel:
     ----------
     calibration : fitted factors, domain and joint shear factor (default: the shipped one)
     geometry : the joint model's dimensions (m); default: the geometry the calibration was
-        fitted on (its ``fe_settings``; the default geometry for the shipped calibration), the
-        one it holds for
+        fitted on (its ``fe_settings``; the default geometry for the shipped calibration). Without
+        ``calibration``, a geometry other than the default takes the shipped calibration over
+        geometry and moduli (:func:`isj.lumped.artifact.geometry_calibration`); whether it lies
+        inside the calibrated geometry: :attr:`outside_geometry`
 
     Notes
     -----
@@ -134,7 +136,8 @@ class LumpedModel:
             )
         if geometry is not None and not isinstance(geometry, Geometry):
             raise InvalidParameter(f"geometry: must be an isj.design.Geometry, not {type(geometry).__name__}")
-        self.calibration = calibration or default_calibration()
+        # another geometry than the default takes the calibration over geometry and moduli
+        self.calibration = calibration or calibration_for(geometry)
         self.geometry = geometry or _fitted_geometry(self.calibration)
 
     @classmethod
@@ -168,6 +171,14 @@ class LumpedModel:
     def shear_factor(self) -> float:
         """The chain's joint shear factor (dimensionless)."""
         return self.calibration.shear_factor
+
+    @property
+    def outside_geometry(self) -> dict[str, tuple[float, float, float]]:
+        """The model's dimensions outside the calibrated geometry: ``{name: (value, low, high)}`` (m).
+
+        Empty inside it. See :meth:`isj.lumped.artifact.Calibration.outside_geometry`.
+        """
+        return self.calibration.outside_geometry(self.geometry)
 
     @property
     def domain(self) -> dict[str, tuple[float, float]]:

@@ -139,7 +139,7 @@ class Lever:
     root_plate: float = (
         0.0  # M_root per N / (b_x0² b_y) × (h0/h)^4.5 (1/m²): the plate bending under the root
     )
-    plate_face: float = 1.0  # on the plate face's terms
+    plate_face: float = 1.0  # on the plate face's e^(−s) cos s term
     support: float = 1.0  # on s
 
     @classmethod
@@ -220,7 +220,9 @@ def equations(E, factors, lever: Lever):
     )
     s = f_support * lever.support * (1e3 * e_gap / e_plate) ** PLATE_SUPPORT_EXPONENT
     sharing = k_gap * k_cap / (k_gap + k_cap) ** 2
-    plate = lever.plate_face * (f_plate * exp(-s) * cos(s) + f_share * sharing) / e_plate
+    # the footprint's scaling is the plate face's under the root only: the load sharing is the
+    # plate's deformation between the gap's and the capsule's reactions, over the joint's section
+    plate = (lever.plate_face * f_plate * exp(-s) * cos(s) + f_share * sharing) / e_plate
     bulk = lever.bulk * (plate + f_stapes / e_stapes)
     alpha = P * lever.joint_arm * (1 / (k_gap + k_cap) + bulk)
     return alpha, beta

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from isj.errors import UsageError
+
 from . import _common as c
 
 #: Largest --samples and --validation: FE designs take seconds each, so 10 000 is hours of FE on
@@ -42,13 +44,25 @@ def register(sub) -> None:
         help="FE modal analyses for the dynamic chain's joint shear factor, in "
         f"[0, {MAX_MODAL_SAMPLES}] (default 16; 0 = skip)",
     )
+    p.add_argument(
+        "--geometry-domain",
+        action="store_true",
+        help="sample the geometry (the dimensions and ranges of docs/lumped.md section 3.13) together "
+        "with the moduli; local processes only (--workers), no --scheduler",
+    )
+    p.add_argument(
+        "--workers",
+        type=c.int_option("--workers", 1, 64),
+        default=1,
+        help="FE worker processes with --geometry-domain (default 1)",
+    )
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=calibrate)
 
 
 def calibrate(args) -> int:
     from isj.calibration.pipeline import calibrate as fit
-    from isj.calibration.pipeline import calibrate_dynamics
+    from isj.calibration.pipeline import calibrate_dynamics, calibrate_geometry
     from isj.fem.batch import evaluate_design, evaluate_modes, fe_settings
 
     from ..atomic import atomic_write_text
@@ -57,19 +71,33 @@ def calibrate(args) -> int:
     # every input, the output path, the model's size and the scheduler: before any FE run
     out = c.check_out_path(args.out, "--out", ".json")
     c.check_model_size(None, args.order, args.resolution)
+    if args.geometry_domain and args.scheduler:
+        raise UsageError("--geometry-domain runs on local processes (--workers): drop --scheduler")
     c.check_scheduler(args.scheduler)
     settings = fe_settings(order=args.order, resolution=args.resolution)
     cache = fe_cache_dir(args.cache)
-    cal = fit(
-        evaluate_design,
-        settings,
-        cache,
-        samples=args.samples,
-        validation=args.validation,
-        seed=args.seed,
-        scheduler=args.scheduler,
-        progress=not args.quiet,
-    )
+    if args.geometry_domain:
+        cal = calibrate_geometry(
+            evaluate_design,
+            settings,
+            cache,
+            samples=args.samples,
+            validation=args.validation,
+            seed=args.seed,
+            max_workers=args.workers,
+            progress=not args.quiet,
+        )
+    else:
+        cal = fit(
+            evaluate_design,
+            settings,
+            cache,
+            samples=args.samples,
+            validation=args.validation,
+            seed=args.seed,
+            scheduler=args.scheduler,
+            progress=not args.quiet,
+        )
     if args.modal_samples:
         cal = calibrate_dynamics(
             cal,

@@ -22,7 +22,7 @@ def register(sub) -> None:
         "another is refused",
     )
     c.pressure_option(p)
-    c.add_geometry_option(p)  # refused unless empty: calibrated for the default geometry only
+    c.add_geometry_option(p)  # another geometry takes the shipped geometry calibration
     c.add_calibration_option(p)
     c.add_json_option(p)
     p.set_defaults(func=solve)
@@ -34,12 +34,50 @@ def calibrated_nu(cal) -> float:
     return float(nu) if isinstance(nu, int | float) and not isinstance(nu, bool) else Materials().nu
 
 
+def calibration_and_geometry(args):
+    """(calibration, geometry) of ``--calibration`` and ``--geometry``; warns outside the calibrated geometry.
+
+    Without ``--calibration``, a geometry other than the default takes the shipped calibration
+    over geometry and moduli (:func:`isj.lumped.artifact.calibration_for`). Each dimension outside
+    the calibration's geometric domain is one :class:`~isj.errors.OutOfDomainWarning`.
+    """
+    from isj.design import Geometry
+
+    g = c.geometry(args) if args.geometry else Geometry()
+    if args.calibration:
+        cal = c.load_calibration(args.calibration)
+    else:
+        from isj.lumped.artifact import CorruptCalibration, calibration_for
+
+        try:
+            cal = calibration_for(g)
+        except CorruptCalibration as exc:
+            raise UsageError(str(exc)) from None
+    warn_outside_geometry(cal, g)
+    return cal, g
+
+
+def warn_outside_geometry(cal, geometry) -> int:
+    """One :class:`~isj.errors.OutOfDomainWarning` per dimension outside ``cal``'s geometry; their count."""
+    import warnings
+
+    from isj.errors import OutOfDomainWarning
+
+    out = cal.outside_geometry(geometry)
+    for name, (v, lo, hi) in out.items():
+        where = f"[{lo:g}, {hi:g}] m" if lo != hi else f"{lo:g} m (the geometry it was fitted on)"
+        warnings.warn(
+            f"{name} = {v:g} m outside the calibrated geometry {where}: the lumped model is extrapolating",
+            OutOfDomainWarning,
+            stacklevel=2,
+        )
+    return len(out)
+
+
 def solve(args) -> int:
     from isj.calibration.checks import lumped_static, warn_outside_domain
 
-    cal = c.load_calibration(args.calibration)
-    if args.geometry:
-        raise UsageError("--geometry: the lumped model is calibrated for the default geometry only")
+    cal, geometry = calibration_and_geometry(args)
     nu = calibrated_nu(cal)
     if args.nu is not None and args.nu != nu:
         raise UsageError(
@@ -49,14 +87,14 @@ def solve(args) -> int:
     args.nu = nu
     designs = c.moduli(c.materials(args))
     warn_outside_domain(cal, designs)
-    r = lumped_static(cal, designs, pressure_pa=args.pressure)
+    r = lumped_static(cal, designs, geometry, pressure_pa=args.pressure)
     out = {
         "alpha_rad": float(r.alpha_rad),
         "beta_rad": float(r.beta_rad),
         "alpha_plus_beta_rad": float(r.sum_rad),
         "beta_over_alpha": float(r.ratio),
         "pressure_pa": args.pressure,
-        "calibration": args.calibration or "default",
+        "calibration": args.calibration or ("default" if not cal.geometry_domain else "geometry"),
         "validation": cal.validation,
     }
     c.check_finite(out, f"{c.design_inputs(args)}, --calibration {out['calibration']}")

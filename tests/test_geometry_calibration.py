@@ -1,0 +1,243 @@
+"""Geometry in the calibration's design space (docs/lumped.md §3.13): sampler, scaling, fit, CLI."""
+
+import warnings
+
+import casadi  # noqa: F401 - a hard dependency: without it these tests fail, they do not skip
+import numpy as np
+import pytest
+from isj.calibration.doe import (
+    GEOMETRY_CLEARANCE_M,
+    GEOMETRY_DOMAIN_M,
+    DesignSpace,
+    GeometrySpace,
+    mixed_corners,
+    sample_with_geometry,
+)
+from isj.calibration.fit import fit_factors
+from isj.lumped.api import LumpedModel
+from isj.lumped.artifact import default_calibration, geometry_calibration
+from isj.lumped.model import FACTOR_NAMES, Lever, equations, moduli_arrays
+
+from isj.cli import main
+from isj.design import Geometry
+from isj.errors import OutOfDomainWarning
+
+
+def test_sampler_keeps_every_geometry_valid_and_inside_its_box():
+    space, gspace = DesignSpace(), GeometrySpace()
+    pairs = sample_with_geometry(space, gspace, 200, seed=5)
+    assert len(pairs) == 200
+    assert space.contains([m for m, _ in pairs]).all()
+    for _, dims in pairs:
+        g = Geometry(**dims)  # constructs: Geometry's own constraints hold
+        assert g.capsule_reach_m - g.capsule_bond_m >= GEOMETRY_CLEARANCE_M * (1 - 1e-9)
+        assert g.plate_thickness_m - g.capsule_reach_m >= GEOMETRY_CLEARANCE_M * (1 - 1e-9)
+        assert gspace.contains(dims)
+        for n, (lo, hi) in GEOMETRY_DOMAIN_M.items():
+            assert lo <= dims[n] <= hi
+    # the same seed, the same designs; every corner reported is a valid geometry
+    assert sample_with_geometry(space, gspace, 200, seed=5) == pairs
+    assert all(Geometry(**g) for _, _, g in mixed_corners(space, gspace))
+    # the box itself holds invalid points (reach beyond a thin plate): the sampler skips them
+    assert not gspace.valid({"capsule_reach_m": 56e-6, "plate_thickness_m": 36e-6})
+
+
+def test_beam_term_is_the_euler_bernoulli_rotation_over_the_geometry():
+    """β of the beam term alone (other factors 0) against ∫ M/(E I) dz integrated numerically."""
+    factors = default_calibration().factor_array()
+    factors[FACTOR_NAMES.index("pedicle_bending")] = 1.0
+    factors[FACTOR_NAMES.index("pedicle_root")] = factors[FACTOR_NAMES.index("pedicle_top")] = 0.0
+    E = moduli_arrays(pedicle_e_pa=5e9)
+    for dims in ({}, {"pedicle_x_m": 41.25e-6}, {"pedicle_y_m": 200e-6, "pedicle_length_m": 300e-6}):
+        g = Geometry(**dims)
+        _, beta = equations(E, factors, Lever.from_geometry(g))
+        force = g.incus_y_m * g.incus_length_m
+        z_load = g.z_incus + g.incus_length_m / 2
+        z = np.linspace(g.z_pedicle, g.z_incus, 20001)
+        inertia = g.pedicle_y_m * g.pedicle_x_m**3 / 12
+        exact = np.trapezoid(force * (z_load - z) / (5e9 * inertia), z)
+        assert float(beta) == pytest.approx(exact, rel=1e-9)
+
+
+def test_fit_recovers_known_factors_with_geometry_and_moduli_varied_together():
+    truth = geometry_calibration().factor_array()  # every factor > 0, root_plate included
+    pairs = sample_with_geometry(DesignSpace(), GeometrySpace(), 64, seed=2)
+    records = []
+    for m, dims in pairs:
+        a, b = equations(moduli_arrays(**m), truth, Lever.from_geometry(Geometry(**dims)))
+        records.append({"design": m, "geometry": dims, "alpha_per_pa": float(a), "beta_per_pa": float(b)})
+    res = fit_factors(records)
+    assert res.max_rel_error < 1e-6
+    assert np.allclose(res.factors, truth, rtol=1e-4, atol=1e-4)  # a vanishing factor: absolute
+
+
+def test_shipped_geometry_calibration_covers_geometry_and_moduli():
+    cal = geometry_calibration()
+    assert set(cal.geometry_domain) == set(GEOMETRY_DOMAIN_M)
+    assert cal.validation["n"] >= 64
+    assert cal.corners  # the mixed corners are reported
+    # the default geometry lies inside it; the default calibration holds for that one only
+    assert cal.outside_geometry(Geometry()) == {}
+    assert default_calibration().outside_geometry(Geometry()) == {}
+    assert set(default_calibration().outside_geometry(Geometry(pedicle_x_m=60e-6))) == {"pedicle_x_m"}
+    assert set(cal.outside_geometry(Geometry(pedicle_x_m=90e-6))) == {"pedicle_x_m"}
+
+
+def test_lumped_model_takes_the_geometry_calibration_for_another_geometry():
+    g = Geometry(pedicle_x_m=60e-6, gap_thickness_m=30e-6)
+    lm = LumpedModel(geometry=g)
+    assert lm.calibration.geometry_domain and lm.outside_geometry == {}
+    assert LumpedModel().calibration.geometry_domain == {}  # the default geometry: the default calibration
+    assert LumpedModel(geometry=Geometry(pedicle_x_m=90e-6)).outside_geometry
+
+
+def run(capsys, argv):
+    code = main(argv)
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_cli_lumped_solve_accepts_geometry_inside_and_warns_outside(capsys):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", OutOfDomainWarning)
+        code, out, err = run(capsys, ["lumped", "solve", "--geometry", "pedicle_x_m=60e-6", "--json"])
+    assert code == 0 and "warning" not in err
+    code, out2, err = run(capsys, ["lumped", "solve", "--geometry", "pedicle_x_m=90e-6", "--json"])
+    assert code == 0
+    assert "pedicle_x_m" in err and "outside the calibrated geometry" in err
+    code, base, _ = run(capsys, ["lumped", "solve", "--json"])
+    assert code == 0 and base != out  # the geometry changes the answer
+    # the default calibration with another geometry: outside (it holds for its own only)
+    code, _, err = run(capsys, ["lumped", "solve", "--geometry", "pedicle_x_m=60e-6", "--calibration",
+                                str(_default_path())])  # fmt: skip
+    assert code == 0 and "pedicle_x_m" in err
+
+
+def _default_path():
+    from importlib import resources
+
+    return resources.files("isj.lumped") / "data" / "default_calibration.json"
+
+
+@pytest.mark.parametrize("arg", ["bogus_m=1e-6", "pedicle_x_m=abc", "pedicle_x_m=-1", "capsule_bond_m=50e-6"])
+def test_cli_lumped_solve_bad_geometry_is_one_line_exit_2(capsys, arg):
+    with pytest.raises(SystemExit) as exc:
+        code = main(["lumped", "solve", "--geometry", arg])
+        raise SystemExit(code)
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip()
+    assert err and len(err.splitlines()) <= 2  # argparse prints its usage line first
+
+
+#: Three designs chosen by hand, none of them in the training or validation samples (geometry
+#: and moduli varied together), with their FE α and β (rad) at the default pressure (P2,
+#: resolution 1, the calibration's mesh settings), computed by FE for this test.
+UNSEEN = [
+    (
+        {
+            "pedicle_e_pa": 3e9,
+            "gap_e_pa": 4e6,
+            "capsule_e_pa": 120e6,
+            "plate_e_pa": 2e9,
+            "stapes_e_pa": 0.6e9,
+        },
+        {
+            "pedicle_x_m": 48e-6,
+            "pedicle_length_m": 280e-6,
+            "gap_thickness_m": 40e-6,
+            "plate_thickness_m": 50e-6,
+        },
+    ),
+    (
+        {
+            "pedicle_e_pa": 15e9,
+            "gap_e_pa": 30e6,
+            "capsule_e_pa": 25e6,
+            "plate_e_pa": 0.5e9,
+            "stapes_e_pa": 3e9,
+        },
+        {
+            "pedicle_y_m": 190e-6,
+            "capsule_thickness_m": 24e-6,
+            "capsule_reach_m": 30e-6,
+            "capsule_bond_m": 14e-6,
+        },
+    ),
+    (
+        {
+            "pedicle_e_pa": 8e9,
+            "gap_e_pa": 1.5e6,
+            "capsule_e_pa": 250e6,
+            "plate_e_pa": 4e9,
+            "stapes_e_pa": 1.5e9,
+        },
+        {
+            "pedicle_x_m": 66e-6,
+            "pedicle_y_m": 130e-6,
+            "gap_thickness_m": 28e-6,
+            "capsule_thickness_m": 36e-6,
+            "capsule_reach_m": 50e-6,
+            "capsule_bond_m": 25e-6,
+            "plate_thickness_m": 80e-6,
+        },
+    ),
+]
+UNSEEN_FE = [  # (α, β) in rad at 28.5 Pa, FE P2 resolution 1 (isj.fem.batch.evaluate_design)
+    (1.9249431520071107e-06, 2.533384576676923e-05),
+    (7.687803806577267e-07, 9.38688156190527e-06),
+    (7.55507847556457e-07, 3.927145210882337e-06),
+]
+
+
+def _lumped(moduli, dims):
+    lm = LumpedModel(geometry=Geometry(**dims))
+    r = lm.static(**moduli)
+    return float(r.alpha_rad), float(r.beta_rad)
+
+
+def _unseen_errors():
+    out = []
+    for (moduli, dims), (a_fe, b_fe) in zip(UNSEEN, UNSEEN_FE, strict=True):
+        a, b = _lumped(moduli, dims)
+        out.append((a / a_fe - 1, b / b_fe - 1))
+    return np.array(out)
+
+
+def test_three_unseen_geometry_and_moduli_designs_beta_within_3_percent():
+    errors = _unseen_errors()
+    assert np.all(np.abs(errors[:, 1]) < 0.03), errors
+
+
+def test_three_unseen_designs_alpha_within_10_percent():
+    """What the geometry calibration achieves on α (measured: -5.9 %, +7.5 %, +8.8 %)."""
+    errors = _unseen_errors()
+    assert np.all(np.abs(errors[:, 0]) < 0.10), errors
+
+
+@pytest.mark.xfail(strict=True, reason="issue 15's 3 % target on α is not met yet (docs/lumped.md §3.13)")
+def test_three_unseen_designs_alpha_within_3_percent():
+    errors = _unseen_errors()
+    assert np.all(np.abs(errors[:, 0]) < 0.03), errors
+
+
+@pytest.mark.slow
+def test_unseen_fe_values_are_what_fe_gives(tmp_path):
+    """The stored FE values of UNSEEN, recomputed (three meshes: about a minute)."""
+    from isj.calibration.runner import run_geometry_designs
+    from isj.fem.batch import evaluate_design, fe_settings
+
+    recs = run_geometry_designs(
+        UNSEEN, evaluate_design, fe_settings(), tmp_path, max_workers=0, progress=False
+    )
+    for r, (a, b) in zip(recs, UNSEEN_FE, strict=True):
+        assert r["result"]["alpha_rad"] == pytest.approx(a, rel=1e-6)
+        assert r["result"]["beta_rad"] == pytest.approx(b, rel=1e-6)
+
+
+def test_unseen_designs_are_not_in_the_training_or_validation_samples():
+    from isj.calibration.pipeline import geometry_designs
+
+    train, held = geometry_designs(DesignSpace(), GeometrySpace(), 96, 64, 0)
+    seen = [m for m, _ in train + held]
+    for moduli, _ in UNSEEN:
+        assert moduli not in seen
