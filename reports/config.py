@@ -176,7 +176,8 @@ class TransmissionConfig:
     Each case in ``cases`` gets its own reduced FE ear (:func:`isj.fem.ear.ear_sweep.reduced_ear`,
     about 35 s on 2 cores at the default mesh) beside the rigid incus–stapes connection;
     ``fe_checks`` direct harmonic solves of the first case, the highest at ``fmax_hz``, check
-    the reduction. The damping is the ``[sweep]`` section's.
+    the reduction. ``sliding_cases`` are computed again with the sliding joint (docs/model.md
+    §2.12), as ``<case>_sliding``. The damping is the ``[sweep]`` section's.
     """
 
     fmin_hz: float = 100.0
@@ -184,6 +185,7 @@ class TransmissionConfig:
     n_freq: int = 200
     cases: tuple[str, ...] = ("base", "j5", "c20", "c100", "j5c20", "p12", "p3")
     fe_checks: int = 2
+    sliding_cases: tuple[str, ...] = ("base",)
 
 
 @dataclass(frozen=True)
@@ -197,6 +199,22 @@ class SlidingConfig:
 
     joints: tuple[str, ...] = ("bonded", "sliding")
     layer_shear_pa: float = 1e3
+
+
+@dataclass(frozen=True)
+class GuardConfig:
+    """The lumped model checked against the certified surrogate over the calibrated domain.
+
+    The surrogate of the report's mesh is built once (minutes) and cached (docs/rom.md §10.6);
+    the corners and ``dense_samples`` Sobol designs (``seed``) go through it, and FE runs at the
+    ``fe_checks`` worst (docs/rom.md §10.10). ``tolerance``: the lumped model's largest
+    certified relative error of a design called ``ok``.
+    """
+
+    dense_samples: int = 4096
+    seed: int = 0
+    fe_checks: int = 2
+    tolerance: float = 0.03
 
 
 #: ``isj uq``'s ranges (isj.calibration.uq_inputs; a test checks they are the same), here so
@@ -241,6 +259,7 @@ class ReportConfig:
     ear: EarMaterials = field(default_factory=EarMaterials)
     transmission: TransmissionConfig = field(default_factory=TransmissionConfig)
     sliding: SlidingConfig = field(default_factory=SlidingConfig)
+    guard: GuardConfig = field(default_factory=GuardConfig)
     uq: UQReportConfig = field(default_factory=UQReportConfig)
 
     def to_dict(self) -> dict[str, dict]:
@@ -376,6 +395,10 @@ def _check(cfg: ReportConfig) -> None:
     for c in t.cases:
         need(c in names, "transmission.cases", c, f"each must be one of {', '.join(names)}")
     need(len(set(t.cases)) == len(t.cases), "transmission.cases", list(t.cases), "must not repeat")
+    for c in t.sliding_cases:
+        need(c in names, "transmission.sliding_cases", c, f"each must be one of {', '.join(names)}")
+    need(len(set(t.sliding_cases)) == len(t.sliding_cases), "transmission.sliding_cases",
+         list(t.sliding_cases), "must not repeat")  # fmt: skip
     sl = cfg.sliding
     for j in sl.joints:
         need(j in ("bonded", "sliding", "layer"), "sliding.joints", j,
@@ -384,6 +407,11 @@ def _check(cfg: ReportConfig) -> None:
     need("bonded" in sl.joints, "sliding.joints", list(sl.joints), 'must include "bonded" (the reference)')
     g = sl.layer_shear_pa
     need(1.0 <= g <= 1e9, "sliding.layer_shear_pa", g, "must be in [1, 1e9] Pa")
+    gd = cfg.guard
+    need(0 <= gd.dense_samples <= 2**22, "guard.dense_samples", gd.dense_samples, f"must be in [0, {2**22}]")
+    need(0 <= gd.seed <= 2**32 - 1, "guard.seed", gd.seed, f"must be in [0, {2**32 - 1}]")
+    need(0 <= gd.fe_checks <= 20, "guard.fe_checks", gd.fe_checks, "must be in [0, 20]")
+    need(0 < gd.tolerance < 1, "guard.tolerance", gd.tolerance, "must be in (0, 1)")
     u = cfg.uq
     for key, (lo, hi) in UQ_RANGES.items():
         v = getattr(u, key)

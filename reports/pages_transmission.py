@@ -102,7 +102,8 @@ def delta_page(fig, tr: dict, arrays: dict, lumped: dict, lumped_arrays: dict):
     ax_p.set_title("dH_V phase (deg), FE", fontsize=8)
     ax_s.set_title("pedicle share |beta / (alpha + beta)|, FE", fontsize=8)
     ax_s.set_ylim(0, 1.5)
-    named = (("p3", "p12", "pedicle: p3 / p12"), ("j5c20", "base", "joint: j5c20 / base"))
+    named = (("p3", "p12", "pedicle: p3 / p12"), ("j5c20", "base", "joint: j5c20 / base"),
+             ("base_sliding", "base", "sliding / bonded joint"))  # fmt: skip
     pairs = [(a, b, lab) for a, b, lab in named if a in cases and b in cases]
     axes = [ax_m, ax_p, ax_s]
     if pairs:  # the pedicle's and the joint's own effect, where the cases allow it
@@ -111,7 +112,7 @@ def delta_page(fig, tr: dict, arrays: dict, lumped: dict, lumped_arrays: dict):
             r = d[:, cases.index(a)] / d[:, cases.index(b)]
             ax_c.semilogx(f, _db(r), color=f"C{n}", lw=1, label=f"{lab} (dB)")
             ax_c.semilogx(f, _deg(r) / 10, color=f"C{n}", lw=1, ls="--", label=f"{lab} (deg / 10)")
-        ax_c.set_title("softer pedicle, softer joint: ratio of their H_V", fontsize=8)
+        ax_c.set_title("softer pedicle, softer or sliding joint: ratio of their H_V", fontsize=8)
         ax_c.legend(fontsize=5.5)
         axes.append(ax_c)
     for ax in axes:

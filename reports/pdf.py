@@ -9,6 +9,7 @@ the PDF's text against the JSON.
 
 from __future__ import annotations
 
+from .guard import guard_page
 from .layout import A4, MONO, new_page, pct, ratio, urad  # noqa: F401 - the tests use the formats
 from .pages_dynamic import calibration_page, convergence_page, ear_page, sweep_page
 from .pages_static import cases_page, energy_page, model_page, title_page, trends_page
@@ -31,6 +32,7 @@ PAGE_TITLES = (
     "10. What the pedicle and the joint cost transmission",
     "11. A sliding joint",
     "12. Uncertainty of the moduli",
+    "13. The lumped model's error over the domain",
 )
 
 
@@ -58,6 +60,7 @@ def build_pages(config, results: dict, arrays: dict, provenance: dict):
                              arrays["load_path"]),
         lambda f: sliding_page(f, results["sliding"]),
         lambda f: uq_page(f, results["uq"], results["uq"]["histograms"]),
+        lambda f: guard_page(f, results["guard"], arrays["guard"]),
     )
     for i, (title, build) in enumerate(zip(PAGE_TITLES, builders, strict=True), 1):
         fig = new_page(title, i, total, footer)

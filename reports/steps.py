@@ -22,6 +22,7 @@ from isj.calibration.checks import STATIC_KEYS, static_row
 from isj.cases import THESIS_BASE_ALPHA_RAD, THESIS_BASE_BETA_RAD, THESIS_CASES
 
 from .config import ReportConfig
+from .guard import guard_step
 from .sliding import sliding_step
 from .transmission_step import load_path_step, transmission_step
 from .uq import uq_step
@@ -385,6 +386,7 @@ STEPS = (
     ("transmission", transmission_step, ("design", "geometry", "mesh", "ear", "sweep", "transmission")),
     ("load_path", load_path_step, ("design", "geometry", "ear", "sweep", "transmission")),
     ("sliding", sliding_step, ("design", "geometry", "mesh", "sliding")),
+    ("guard", guard_step, ("design", "geometry", "mesh", "guard")),
     ("uq", uq_step, ("design", "geometry", "uq")),
 )
 

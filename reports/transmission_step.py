@@ -62,6 +62,16 @@ def fe_band(ctx, freq_hz: np.ndarray) -> tuple[dict, dict, dict]:
             f_chk = es.check_frequencies_hz(t.fmin_hz, t.fmax_hz, t.fe_checks)
             checks = es.check_against_direct(ear, rom, f_chk, damping, mats, cfg.ear)
             checks["case"] = name
+    if t.sliding_cases:  # the same ear with the sliding joint (docs/model.md §2.12)
+        from isj.fem.model import PedicleJointModel
+
+        mesh = cfg.mesh
+        jm = PedicleJointModel(cfg.geometry, order=mesh.order, resolution=mesh.resolution, joint="sliding")
+        sliding = MiddleEarModel(joint=jm)
+        for name in t.sliding_cases:
+            rom = es.reduced_ear(sliding, case_by_name(name).materials(base), cfg.ear, fmax_hz=t.fmax_hz)
+            out[f"{name}_sliding"] = _columns(rom.response(freq_hz, damping))
+            info[f"{name}_sliding"] = {"n_dofs": rom.n_dofs, "seconds": rom.info["timings_s"]["total"]}
     return out, info, checks
 
 
@@ -175,7 +185,7 @@ def transmission_step(ctx) -> tuple[dict, dict]:
     cfg, t = ctx.config, ctx.config.transmission
     f = np.geomspace(t.fmin_hz, t.fmax_hz, t.n_freq)
     fe, info, checks = fe_band(ctx, f)
-    cases = list(t.cases)
+    cases = list(t.cases) + [f"{c}_sliding" for c in t.sliding_cases]
     rigid_v = fe["rigid"]["stapes_velocity_m_s"]
     delta = np.column_stack([fe[c]["stapes_velocity_m_s"] / rigid_v for c in cases])
     share = np.column_stack([fe[c]["pedicle_share"] for c in cases])

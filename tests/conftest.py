@@ -78,9 +78,10 @@ COARSE_REPORT = {
     "convergence": {"orders": [2], "directions": ["y"]},
     "calibration": {"check_samples": 2, "seed": 7},
     "sweep": {"n_freq": 20, "fe_checks": 1, "n_modes": 3},
-    "transmission": {"n_freq": 40, "cases": ["p12"], "fe_checks": 1},
+    "transmission": {"n_freq": 40, "cases": ["p12"], "fe_checks": 1, "sliding_cases": ["p12"]},
     "uq": {"samples": 20000, "sobol_samples": 512, "bootstrap": 20},
     "sliding": {"joints": ["bonded", "sliding"]},
+    "guard": {"dense_samples": 512, "fe_checks": 1},
 }
 
 

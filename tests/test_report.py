@@ -27,14 +27,14 @@ def test_interrupted_run_writes_no_pdf_and_resumes_from_the_finished_steps(repor
     assert not report["pdf_after_interrupt"]
     # every step but the interrupted one came from the cache
     steps = ["model", "cases", "trends", "convergence", "calibration", "sweep", "ear"]
-    steps += ["transmission", "load_path", "sliding", "uq"]
+    steps += ["transmission", "load_path", "sliding", "guard", "uq"]
     assert report["first"]["cached"] == steps[: steps.index("sweep")]  # the ear never ran before
     assert report["second"]["cached"] == steps
 
 
 def test_pdf_has_the_pages_in_order(report):
     texts = _pages_text(report["dir"] / "report.pdf")
-    assert len(texts) == len(pdf.PAGE_TITLES) == 13
+    assert len(texts) == len(pdf.PAGE_TITLES) == 14
     for text, title in zip(texts, pdf.PAGE_TITLES, strict=True):
         assert title in text
 
@@ -127,8 +127,9 @@ def test_every_figure_has_data(report):
             assert any(finite), f"empty axes on page {title!r}: {ax.get_title() or ax.get_ylabel()}"
         plt.close(fig)
     # model (2), cases (2), trends (2 x 3), energy (1), convergence (1), calibration (6), sweep (2), ear (1),
-    # H_V (3), dH_V (3: one case, so no pedicle-or-joint ratio panel), sliding (1), uncertainty (3 + 3)
-    assert n_axes == 2 + 2 + 6 + 1 + 1 + 6 + 2 + 1 + 3 + 3 + 1 + 6
+    # H_V (3), dH_V (3: one case, so no pedicle-or-joint ratio panel), sliding (1), uncertainty (3 + 3),
+    # guard (one map per pair of the five moduli: 10)
+    assert n_axes == 2 + 2 + 6 + 1 + 1 + 6 + 2 + 1 + 3 + 3 + 1 + 6 + 10
 
 
 def test_data_files_and_resolved_config(report):
@@ -215,7 +216,7 @@ def test_toml_round_trip_of_every_default():
     cfg = ReportConfig()
     data = tomllib.loads(cfg.to_toml())
     assert set(data) == {"design", "geometry", "mesh", "trends", "convergence", "calibration", "sweep", "ear",
-                         "transmission", "sliding", "uq"}
+                         "transmission", "sliding", "guard", "uq"}
     assert math.isclose(data["design"]["pedicle_e_pa"], cfg.design.pedicle_e_pa)
 
 
@@ -224,7 +225,7 @@ def test_transmission_pages_carry_the_fe_ear_over_the_band(report):
     data = report["dir"] / "data"
     tr = json.loads((data / "transmission.json").read_text())
     ear = json.loads((data / "ear.json").read_text())
-    assert tr["cases"] == ["p12"]
+    assert tr["cases"] == ["p12", "p12_sliding"]
     chk = tr["fe_checks"]
     assert chk["passed"] and chk["max_mag_rel_error"] < 0.01 and chk["max_phase_error_deg"] < 1.0
     assert [c["freq_hz"] for c in chk["checks"]] == [20000.0]
@@ -237,6 +238,8 @@ def test_transmission_pages_carry_the_fe_ear_over_the_band(report):
     first = dict(zip(cols, map(float, lines[2].split(",")), strict=True))
     assert first["freq_hz"] == 100.0 and len(lines) == 2 + 40
     assert first["p12_delta_hv_db"] == pytest.approx(ratio_db, abs=0.03)
+    # the sliding joint in the ear moves H_V at 100 Hz by less than 0.1 dB (measured 0.01 dB)
+    assert -0.1 < first["p12_sliding_delta_hv_db"] - first["p12_delta_hv_db"] < 0.1
     # H_V at 100 Hz, far below the first mode (1.7 kHz), is stiffness-controlled: ω times the static
     # piston, lowered by the complex moduli by at most 1/sqrt(1 + η²) of the largest loss factor
     # (0.3), raised by inertia by at most 1/(1 - (0.1/1.7)²) (measured: 2.0 % low)
@@ -298,3 +301,22 @@ def test_sliding_page_carries_bonded_and_sliding_cases(report):
         assert sliding["capsule_shear_share"] == pytest.approx(1.0, abs=1e-6)
     texts = _pages_text(report["dir"] / "report.pdf")
     assert "A sliding joint" in texts[11] and pdf.urad(rows["base", "sliding"]["alpha_rad"]) in texts[11]
+
+
+def test_guard_page_checks_the_lumped_model_over_the_domain(report):
+    """The surrogate guards the report's lumped model at all 32 corners and a dense sample."""
+    g = json.loads((report["dir"] / "data" / "guard.json").read_text())
+    assert g["corners"]["n"] == 32 == len(g["corner_rows"]) and g["dense"]["n"] == 512
+    rows = g["corner_rows"]
+    dom = g["domain_pa"]
+    # the corners are exactly the calibrated domain's bounds, each combination once
+    assert len({tuple(r[k] for k in dom) for r in rows}) == 32
+    assert all(r[k] in dom[k] for r in rows for k in dom)
+    # the worst certified error is the largest over the rows, and FE lies within the surrogate's bound there
+    worst = max(max(r[f"{k}_certified_error"] for k in ("alpha", "beta", "beta_over_alpha")) for r in rows)
+    assert g["corners"]["max_certified_error"] == pytest.approx(worst, rel=1e-12)
+    assert len(g["fe_confirmations"]) == 1 and g["fe_confirmed"]
+    c = g["fe_confirmations"][0]
+    assert abs(c["fe_alpha_rad"] - c["surrogate_alpha_rad"]) <= c["surrogate_alpha_bound_rad"]
+    texts = _pages_text(report["dir"] / "report.pdf")
+    assert "corners: 32 designs" in texts[13]

@@ -230,3 +230,25 @@ def test_layer_shear_modulus_interpolates(coarse_model, layer_model):
         layer_model.layer_shear_pa = default
     assert a[0] == pytest.approx(coarse_model.solve().alpha_rad, rel=1e-10)
     assert a[0] < a[1] < a[2]
+
+
+def test_the_whole_ear_takes_the_sliding_joint():
+    """Inside the ear the cut gap-plate face keeps u_z continuous; releasing never stiffens the ear."""
+    from isj.fem.ear.middle_ear import MiddleEarModel
+    from isj.fem.model import PedicleJointModel
+    from isj.fem.sliding import tied_nodes
+
+    work = {}
+    for j in ("bonded", "sliding"):
+        jm = PedicleJointModel(order=1, resolution=0.35, joint=j)
+        ear = MiddleEarModel(joint=jm)
+        u = ear.solve_reduced(ear.stiffness(), ear.load_reduced)[:, 0]
+        # W = ½ fᵀu = ½ fᵣᵀ q (fᵣ = Tᵀ f, u = T q), the work of the pressure per Pa²
+        q = np.asarray(ear._solver.solve(ear.load_reduced)).ravel()
+        work[j] = 0.5 * float(np.asarray(ear.load_reduced).ravel() @ q)
+        if j == "sliding":
+            uj = ear.joint_displacement(u).reshape(-1, 3)
+            gap, plate = tied_nodes(jm.space, jm.geometry)
+            np.testing.assert_array_equal(uj[gap, 2], uj[plate, 2])  # the tie, exactly
+            assert np.abs(uj[gap, 0] - uj[plate, 0]).max() > 1e-6 * np.abs(uj[:, 0]).max()  # x slides
+    assert work["sliding"] >= work["bonded"] * (1 - 1e-12)

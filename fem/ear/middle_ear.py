@@ -210,6 +210,12 @@ class MiddleEarModel:
             ):
                 coef = np.einsum("ji,pjk->pik", R, point_map(self.joint_points_m[nodes], x_m))  # Rᵀ G
                 cb.tie(_node_block_dofs(nodes, 3, self.off_joint), master, coef.reshape(-1, 6))
+            if getattr(joint, "joint", "bonded") == "sliding":  # docs/model.md §2.12: the cut gap–plate
+                from isj.fem.sliding import tied_nodes  # face keeps u_z (the joint's z) continuous
+
+                gap, plate = tied_nodes(joint.space, joint.geometry)
+                for gn, pn in zip(gap, plate, strict=True):
+                    cb.tie([self.off_joint + 3 * gn + 2], [self.off_joint + 3 * pn + 2], [[1.0]])
         self.T, self.free = cb.build()
 
         rows, cols = self._fixed_entries()
