@@ -241,3 +241,16 @@ def test_unseen_designs_are_not_in_the_training_or_validation_samples():
     seen = [m for m, _ in train + held]
     for moduli, _ in UNSEEN:
         assert moduli not in seen
+
+
+def test_cli_calibrate_geometry_domain_refuses_a_scheduler(capsys, tmp_path):
+    argv = [
+        "calibrate",
+        "--geometry-domain",
+        "--scheduler",
+        "tcp://127.0.0.1:1",
+        "--out",
+        str(tmp_path / "c.json"),
+    ]
+    assert main(argv) == 2
+    assert "--geometry-domain" in capsys.readouterr().err
