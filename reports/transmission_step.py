@@ -24,6 +24,12 @@ SCALES = (0.1, 10.0)
 QUOTE_HZ = (1000.0, 5000.0, 10000.0)
 
 
+def quote_indices(freq_hz: np.ndarray) -> list[int]:
+    """Indices of the band's frequencies nearest :data:`QUOTE_HZ` (those inside the band)."""
+    f = np.asarray(freq_hz)
+    return [int(np.argmin(np.abs(np.log(f / q)))) for q in QUOTE_HZ if f[0] <= q <= f[-1]]
+
+
 def _ri(a) -> list:
     a = np.asarray(a)
     return np.stack([a.real, a.imag], axis=-1).tolist()
@@ -190,16 +196,14 @@ def transmission_step(ctx) -> tuple[dict, dict]:
     delta = np.column_stack([fe[c]["stapes_velocity_m_s"] / rigid_v for c in cases])
     share = np.column_stack([fe[c]["pedicle_share"] for c in cases])
     quote = []
-    for fq in QUOTE_HZ:
-        if t.fmin_hz <= fq <= t.fmax_hz:
-            i = int(np.argmin(np.abs(np.log(f / fq))))
-            quote.append({
-                "freq_hz": float(f[i]),
-                "rigid_stapes_velocity_m_s_per_pa": [float(rigid_v[i].real), float(rigid_v[i].imag)],
-                "delta_db": {c: float(20 * np.log10(abs(delta[i, k]))) for k, c in enumerate(cases)},
-                "delta_deg": {c: float(np.degrees(np.angle(delta[i, k]))) for k, c in enumerate(cases)},
-                "pedicle_share_abs": {c: float(abs(share[i, k])) for k, c in enumerate(cases)},
-            })  # fmt: skip
+    for i in quote_indices(f):
+        quote.append({
+            "freq_hz": float(f[i]),
+            "rigid_stapes_velocity_m_s_per_pa": [float(rigid_v[i].real), float(rigid_v[i].imag)],
+            "delta_db": {c: float(20 * np.log10(abs(delta[i, k]))) for k, c in enumerate(cases)},
+            "delta_deg": {c: float(np.degrees(np.angle(delta[i, k]))) for k, c in enumerate(cases)},
+            "pedicle_share_abs": {c: float(abs(share[i, k])) for k, c in enumerate(cases)},
+        })  # fmt: skip
     worst = np.abs(20 * np.log10(np.abs(delta)))
     worst_deg = np.abs(np.degrees(np.angle(delta)))
     result = {
@@ -237,13 +241,11 @@ def load_path_step(ctx) -> tuple[dict, dict]:
         base=cfg.design.materials(), damping=cfg.sweep.damping_model(), ear_materials=cfg.ear,
     )  # fmt: skip
     quote = []
-    for fq in QUOTE_HZ:
-        if t.fmin_hz <= fq <= t.fmax_hz:
-            i = int(np.argmin(np.abs(np.log(f / fq))))
-            quote.append({
-                "freq_hz": float(f[i]),
-                "lumped_delta_db": {c: float(lumped.delta_db[i, k]) for k, c in enumerate(cases)},
-                "lumped_delta_deg": {c: float(lumped.delta_deg[i, k]) for k, c in enumerate(cases)},
-            })  # fmt: skip
+    for i in quote_indices(f):
+        quote.append({
+            "freq_hz": float(f[i]),
+            "lumped_delta_db": {c: float(lumped.delta_db[i, k]) for k, c in enumerate(cases)},
+            "lumped_delta_deg": {c: float(lumped.delta_deg[i, k]) for k, c in enumerate(cases)},
+        })  # fmt: skip
     result = {"cases": cases, "quote": quote, "load_path": load_path_study(ctx)}
     return result, {"freq_hz": f, "lumped_delta": lumped.delta}
