@@ -1,5 +1,6 @@
 """Geometry in the calibration's design space (docs/lumped.md §3.13): sampler, scaling, fit, CLI."""
 
+import json
 import warnings
 
 import casadi  # noqa: F401 - a hard dependency: without it these tests fail, they do not skip
@@ -254,3 +255,19 @@ def test_cli_calibrate_geometry_domain_refuses_a_scheduler(capsys, tmp_path):
     ]
     assert main(argv) == 2
     assert "--geometry-domain" in capsys.readouterr().err
+
+
+def test_cli_explore_accepts_geometry_inside_and_warns_outside(capsys):
+    base = ["explore", "--gap-e", "2e6:20e6", "--n", "3", "--no-guard", "--spot-checks", "0", "--json"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", OutOfDomainWarning)
+        code, out, err = run(capsys, [*base, "--geometry", "plate_thickness_m=50e-6"])
+    assert code == 0 and "outside the calibrated geometry" not in err
+    inside = json.loads(out)
+    code, out, _ = run(capsys, base)
+    assert code == 0 and json.loads(out)["alpha_rad_range"] != inside["alpha_rad_range"]
+    # the explored designs' lumped response is the geometry's: the same as lumped solve's
+    lm = LumpedModel(geometry=Geometry(plate_thickness_m=50e-6))
+    assert inside["alpha_rad_range"][0] == pytest.approx(float(lm.static(gap_e_pa=20e6).alpha_rad), rel=1e-12)
+    code, _, err = run(capsys, [*base, "--geometry", "pedicle_x_m=90e-6"])
+    assert code == 0 and "pedicle_x_m" in err and "outside the calibrated geometry" in err

@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import sys
 import time
 
-from isj.design import Materials
+from isj.design import Geometry, Materials
 from isj.errors import UsageError
 
 from . import _common as c
@@ -73,6 +74,7 @@ def register(sub) -> None:
         help="write designs.csv, designs.npz, guard.json, config.json and the beta/alpha maps here "
         f"(replaced as a whole; at most {MAX_OUT_DESIGNS:.0e} designs)",
     )
+    c.add_geometry_option(p)  # another geometry: the shipped geometry calibration (isj lumped solve's)
     c.add_calibration_option(p)
     c.add_cache_option(p)
     p.add_argument(
@@ -125,7 +127,8 @@ def _surrogate(args):
             )
 
     lo, hi = args.incus_e
-    return load_surrogate(args.order, args.resolution, None, lo if lo == hi else None, progress)
+    geometry = c.geometry(args) if args.geometry else None
+    return load_surrogate(args.order, args.resolution, geometry, lo if lo == hi else None, progress)
 
 
 def explore(args) -> int:
@@ -135,14 +138,15 @@ def explore(args) -> int:
     from isj.fem.batch import evaluate_design, fe_settings
 
     from ..caches import fe_cache_dir
+    from .lumped import calibration_and_geometry
 
-    cal = c.load_calibration(args.calibration)
+    cal, geometry = calibration_and_geometry(args)  # warns for a dimension outside its geometry
     if args.n < 1 or (args.sample is not None and args.sample < 1) or args.spot_checks < 0:
         raise UsageError("--n, --sample: must be >= 1; --spot-checks: must be >= 0")
     guarded = not args.no_guard
     out = c.check_out_dir(args.out, "--out", out_entries()) if args.out is not None else None
     if args.spot_checks or guarded:
-        c.check_model_size(None, args.order, args.resolution)
+        c.check_model_size(geometry, args.order, args.resolution)
     space = ExploreSpace(**{f"{r}_e_pa": getattr(args, f"{r}_e") for r in c.MODULUS_OPTIONS})
     total = count_designs(space, args.n, args.sample)  # before anything of that size is allocated
     flag = f"--sample = {args.sample}" if args.sample is not None else f"--n = {args.n}"
@@ -157,12 +161,18 @@ def explore(args) -> int:
     rom, why = _surrogate(args) if guarded else (None, "--no-guard")
     t_load = time.perf_counter() - t0
     # after the surrogate: its first build takes minutes, and the settings carry the FE code's digest
-    settings = fe_settings(order=args.order, resolution=args.resolution, pressure_pa=args.pressure)
+    settings = fe_settings(
+        order=args.order, resolution=args.resolution, geometry=geometry, pressure_pa=args.pressure
+    )
     if rom is None and guarded:
         print(f"isj: warning: {why}; the lumped model is NOT guarded (FE spot checks only)", file=sys.stderr)
     ex = run(cal, designs, args.spot_checks, evaluate_design, settings, fe_cache_dir(args.cache),
              seed=args.seed, progress=not args.json, surrogate=rom, tolerance=args.tolerance,
              n_dense=args.guard_sample)  # fmt: skip
+    if geometry != Geometry():  # the explored designs' lumped response, at this geometry
+        from isj.calibration.checks import lumped_static
+
+        ex = dataclasses.replace(ex, lumped=lumped_static(cal, designs, geometry, args.pressure))
     lum, comp = ex.lumped, ex.checks
     passed = comp.passed(args.tolerance)
     ea, eb = comp.rel_error("alpha_rad"), comp.rel_error("beta_rad")
