@@ -222,11 +222,11 @@ def explore(
     n_out = warn_outside_domain(calibration, designs)
     pressure = settings.get("pressure_pa", DEFAULT_PRESSURE_PA)
     t0 = time.perf_counter()
-    lum = lumped_static(calibration, designs, None, pressure)
+    geometry = Geometry(**settings["geometry"]) if settings.get("geometry") else None
+    lum = lumped_static(calibration, designs, geometry, pressure)
     t_lumped = time.perf_counter() - t0
     guard = None
     if surrogate is not None:
-        geometry = Geometry(**settings["geometry"]) if settings.get("geometry") else None
         guard = run_guard(
             calibration, surrogate, designs, tolerance=tolerance, n_dense=n_dense, seed=seed,
             pressure_pa=pressure, geometry=geometry,

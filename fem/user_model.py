@@ -168,6 +168,7 @@ class UserMeshModel(PedicleJointModel):
         t1 = time.perf_counter()
         ElasticModel.__init__(self, mesh, order, solver)
         self.geometry = None  # the user's anatomy: no parametric geometry
+        self.joint = "bonded"  # the joint as meshed (the sliding cut needs the parametric faces)
         self.unit_load = pressure_load(self.space, "loaded", 1.0, (1.0, 0.0, 0.0))
         rot = {body: rotation_operator(self.space, body)[1] for body in ("incus", "plate", "stapes")}
         ls = np.vstack([rot["plate"] - rot["stapes"], rot["incus"] - rot["plate"]])

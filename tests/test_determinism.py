@@ -21,6 +21,10 @@ COARSE = {
     "convergence": {"orders": [2], "directions": ["y"]},
     "calibration": {"check_samples": 1, "seed": 7},
     "sweep": {"n_freq": 10, "fe_checks": 1, "n_modes": 3},
+    "transmission": {"n_freq": 10, "cases": ["p12"], "fe_checks": 1, "sliding_cases": ["p12"]},
+    "sliding": {"joints": ["bonded", "sliding"]},
+    "guard": {"dense_samples": 64, "fe_checks": 1},
+    "uq": {"samples": 2000, "sobol_samples": 64, "bootstrap": 10},
 }
 
 _SOLVE = textwrap.dedent(

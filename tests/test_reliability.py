@@ -167,6 +167,10 @@ _COARSE_REPORT = {
     "convergence": {"orders": [2], "directions": ["y"]},
     "calibration": {"check_samples": 1, "seed": 7},
     "sweep": {"n_freq": 10, "fe_checks": 1, "n_modes": 3},
+    "transmission": {"n_freq": 10, "cases": ["p12"], "fe_checks": 1, "sliding_cases": ["p12"]},
+    "sliding": {"joints": ["bonded", "sliding"]},
+    "guard": {"dense_samples": 64, "fe_checks": 1},
+    "uq": {"samples": 2000, "sobol_samples": 64, "bootstrap": 10},
 }
 
 
@@ -226,7 +230,9 @@ def test_report_with_another_stack_height_completes_and_a_failed_run_leaves_the_
     # run again: it starts at the first unfinished step, and the new report replaces the old
     monkeypatch.setattr(run, "STEPS", steps)
     summary = run.run_report(other, out, verbosity=0)
-    assert summary["cached"] == ["model", "cases", "trends", "convergence", "calibration", "sweep"]
+    # every step that does not read the [ear] section comes from the cache
+    assert summary["cached"] == ["model", "cases", "trends", "convergence", "calibration", "sweep", "sliding",
+                                 "guard", "uq"]
     after = _snapshot(out)
     assert after["data/model.json"] == before["data/model.json"]
     assert after["data/ear.json"] != before["data/ear.json"]
