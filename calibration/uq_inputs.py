@@ -10,7 +10,6 @@ lognormal (median and σ of ln E, or a factor F = e^σ) or a fixed value. Bad va
 from __future__ import annotations
 
 import math
-import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -20,7 +19,7 @@ from isj.lumped.model import MODULI
 
 from isj.design import Materials
 from isj.errors import ConfigError
-from isj.validate import MODULUS_RANGE_PA
+from isj.validate import MODULUS_RANGE_PA, read_toml
 
 #: Distribution kinds.
 KINDS = ("loguniform", "lognormal", "fixed")
@@ -275,16 +274,7 @@ def uq_config_from_dict(section: Mapping, domain=None, **overrides) -> UQConfig:
 
 def load_uq_config(path: str | Path, domain=None, **overrides) -> UQConfig:
     """The ``[uq]`` section of the TOML file at ``path`` (other sections are left to their owners)."""
-    try:
-        data = tomllib.loads(Path(path).read_text(encoding="utf-8"))
-    except UnicodeDecodeError as exc:
-        raise ConfigError(
-            f"--config {str(path)!r}: not a TOML file (not UTF-8 at byte {exc.start})"
-        ) from None
-    except OSError as exc:
-        raise ConfigError(f"--config {str(path)!r}: cannot read ({exc.strerror})") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"--config {str(path)!r}: not valid TOML ({exc})") from None
+    data = read_toml(path)
     if "uq" not in data:
         raise ConfigError(f"--config {str(path)!r}: has no [uq] section")
     return uq_config_from_dict(data["uq"], domain, **overrides)

@@ -119,3 +119,21 @@ def check_modulus(value, name: str = "modulus") -> float:
 def check_pressure(value, name: str = "pressure_pa") -> float:
     """A static pressure (Pa) within :data:`PRESSURE_RANGE_PA`, as a float (see :func:`check_modulus`)."""
     return _check_in(name, value, *PRESSURE_RANGE_PA, "Pa")
+
+
+def read_toml(path, option: str = "--config") -> dict:
+    """The TOML file at ``path`` as a dict, or a ConfigError naming ``option`` in one line."""
+    import tomllib
+    from pathlib import Path
+
+    from isj.errors import ConfigError
+
+    try:
+        return tomllib.loads(Path(path).read_text(encoding="utf-8"))
+    except UnicodeDecodeError as exc:
+        where = f"{option} {str(path)!r}"
+        raise ConfigError(f"{where}: not a TOML file (not UTF-8 at byte {exc.start})") from None
+    except OSError as exc:
+        raise ConfigError(f"{option} {str(path)!r}: cannot read ({exc.strerror})") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{option} {str(path)!r}: not valid TOML ({exc})") from None

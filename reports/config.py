@@ -32,7 +32,7 @@ from isj.cases import THESIS_CASES
 from isj.design import DEFAULT_PRESSURE_PA, Geometry, InvalidParameter, Materials
 from isj.ear import EarMaterials
 from isj.errors import ConfigError  # noqa: F401 - re-exported, its old home
-from isj.validate import check_modulus, check_pressure
+from isj.validate import check_modulus, check_pressure, read_toml
 
 
 @dataclass(frozen=True)
@@ -445,16 +445,7 @@ def load_config(path: str | Path | None = None, overrides: list[str] = ()) -> Re
     """
     data: dict[str, dict] = {}
     if path is not None:
-        try:
-            data = tomllib.loads(Path(path).read_text(encoding="utf-8"))
-        except UnicodeDecodeError as exc:
-            raise ConfigError(
-                f"--config {str(path)!r}: not a TOML file (not UTF-8 at byte {exc.start})"
-            ) from None
-        except OSError as exc:
-            raise ConfigError(f"--config {str(path)!r}: cannot read ({exc.strerror})") from None
-        except tomllib.TOMLDecodeError as exc:
-            raise ConfigError(f"--config {str(path)!r}: not valid TOML ({exc})") from None
+        data = read_toml(path)
     for name, values in data.items():
         if name not in _SECTIONS:
             raise ConfigError(f"unknown section [{name}]; valid sections: {', '.join(_SECTIONS)}")
