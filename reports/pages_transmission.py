@@ -102,6 +102,7 @@ def delta_page(fig, tr: dict, arrays: dict, lumped: dict, lumped_arrays: dict):
     ax_p.set_title("dH_V phase (deg), FE", fontsize=8)
     ax_s.set_title("pedicle share |beta / (alpha + beta)|, FE", fontsize=8)
     ax_s.set_ylim(0, 1.5)
+    ax_m.legend(fontsize=5.5, ncol=2)
     named = (("p3", "p12", "pedicle: p3 / p12"), ("j5c20", "base", "joint: j5c20 / base"),
              ("base_sliding", "base", "sliding / bonded joint"))  # fmt: skip
     pairs = [(a, b, lab) for a, b, lab in named if a in cases and b in cases]
@@ -119,7 +120,7 @@ def delta_page(fig, tr: dict, arrays: dict, lumped: dict, lumped_arrays: dict):
         ax.tick_params(labelsize=6)
         ax.grid(True, which="both", lw=0.3)
         ax.set_xlabel("frequency (Hz)", fontsize=6)
-    lines = [f"{'dH_V, FE':14}" + "".join(f"{c:>15}" for c in cases)]
+    lines = [f"{'dH_V, FE':15}" + "".join(f"{c:>15}" for c in cases)]
     for q in tr["quote"]:
         lines.append(f"{q['freq_hz']:8.0f} Hz    " + "".join(
             f"{q['delta_db'][c]:+7.2f}dB{q['delta_deg'][c]:+5.1f}d" for c in cases))  # fmt: skip
