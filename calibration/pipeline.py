@@ -11,14 +11,28 @@ import datetime as _dt
 from importlib import metadata
 
 import numpy as np
-from isj.lumped.artifact import Calibration
+from isj.lumped.artifact import CALIBRATED_JOINTS, Calibration
 from isj.lumped.model import FACTOR_NAMES, equations, moduli_arrays
 
-from isj.design import Geometry
+from isj.design import Geometry, InvalidParameter
 
 from .doe import DesignSpace, GeometrySpace, mixed_corners, sample, sample_with_geometry
 from .fit import fit_factors, record_lever
 from .runner import run_designs, run_geometry_designs
+
+
+def settings_joint(settings: dict) -> str:
+    """The joint of FE ``settings`` (``fem.batch.fe_settings``): its ``joint``, else bonded.
+
+    The FE settings carry the joint into every cache key (a bonded and a sliding design never
+    share a record) and, through :func:`calibrate`, into the artifact's ``joint``.
+    """
+    joint = settings.get("joint", "bonded")
+    if joint not in CALIBRATED_JOINTS:
+        raise InvalidParameter(
+            f"settings['joint'] = {joint!r}: must be one of {', '.join(CALIBRATED_JOINTS)}"
+        )
+    return joint
 
 
 def records_for_fit(records: list[dict], with_geometry: bool = False) -> list[dict]:
@@ -91,6 +105,7 @@ def calibrate(
     res = fit_factors(train_rec, geometry)
     mesh_hashes = sorted({r["result"].get("mesh_hash", "") for r in records})
     return Calibration(
+        joint=settings_joint(settings),
         factors={n: float(v) for n, v in zip(FACTOR_NAMES, res.factors, strict=True)},
         domain=space.to_dict(),
         training=error_stats(res.factors, train_rec, geometry) | {"ipopt_iterations": res.iterations},
@@ -187,6 +202,7 @@ def geometry_calibration_from_records(
         corner_errors[label] = {"alpha": e["max_alpha"], "beta": e["max_beta"]}
     fe = {k: v for k, v in settings.items()} | {"n_meshes": len(mesh_hashes)}
     return Calibration(
+        joint=settings_joint(settings),
         factors={n: float(v) for n, v in zip(FACTOR_NAMES, res.factors, strict=True)},
         domain=space.to_dict(),
         geometry_domain=geometry.to_dict(),
@@ -290,6 +306,10 @@ def calibrate_dynamics(
     """
     import dataclasses
 
+    if settings_joint(settings) != cal.joint:
+        raise InvalidParameter(
+            f"settings['joint'] = {settings_joint(settings)!r}: the calibration is for the {cal.joint} joint"
+        )
     space = DesignSpace.from_dict(cal.domain)
     train = sample(space, samples, seed, method="sobol")
     held = sample(space, validation, seed + 1, method="lhs") if validation else []

@@ -19,7 +19,7 @@ from isj.digest import code_digest
 from .model import PedicleJointModel
 
 #: Keys a settings dict may hold (see :func:`fe_settings`).
-SETTINGS_KEYS = frozenset({"order", "resolution", "geometry", "pressure_pa", "fem_code"})
+SETTINGS_KEYS = frozenset({"order", "resolution", "geometry", "pressure_pa", "fem_code", "joint"})
 
 #: Keys a design may hold: the Young's moduli (Pa) and Poisson's ratio.
 DESIGN_KEYS = frozenset({f"{r}_e_pa" for r in REGIONS} | {"nu"})
@@ -55,6 +55,7 @@ def fe_settings(
     resolution: float = 1.0,
     geometry: Geometry | Mapping | None = None,
     pressure_pa: float = DEFAULT_PRESSURE_PA,
+    joint: str = "bonded",
 ) -> dict:
     """Canonical settings for :func:`evaluate_design`, every value explicit.
 
@@ -64,22 +65,33 @@ def fe_settings(
     resolution : refinement factor of every element size (> 0)
     geometry : Geometry or dict of its fields (m); None = defaults
     pressure_pa : load on the incus's −x face (Pa)
+    joint : "bonded" or "sliding" (:data:`isj.fem.sliding.JOINTS`; the layer's shear modulus
+        is not a setting, so "layer" is refused)
 
     Returns
     -------
     dict
         ``{"order", "resolution", "geometry" (all fields, m), "pressure_pa",
-        "fem_code"}``: JSON-able, so it can key a result cache.
+        "fem_code"}``, and ``"joint"`` for a joint other than bonded (so bonded settings and
+        their cache keys are those of before the joint existed): JSON-able, so it can key a
+        result cache.
     """
     geom = _geometry(geometry)
     _check_mesh(order, resolution)
+    joint = _joint(joint)
     return {
         "order": int(order),
         "resolution": float(resolution),
         "geometry": dataclasses.asdict(geom),
         "pressure_pa": check_pressure(pressure_pa),
         "fem_code": fem_code_digest(),
-    }
+    } | ({"joint": joint} if joint != "bonded" else {})
+
+
+def _joint(joint) -> str:
+    if joint not in ("bonded", "sliding"):
+        raise InvalidParameter(f"joint = {joint!r}: must be bonded or sliding")
+    return joint
 
 
 def _geometry(geometry: Geometry | Mapping | None) -> Geometry:
@@ -98,13 +110,15 @@ def _check_mesh(order, resolution) -> None:
         raise InvalidParameter(f"resolution = {resolution!r}: must be a finite number > 0")
 
 
-def _model(geometry: Geometry, order: int, resolution: float) -> tuple[PedicleJointModel, str]:
+def _model(
+    geometry: Geometry, order: int, resolution: float, joint: str = "bonded"
+) -> tuple[PedicleJointModel, str]:
     """The memoised (model, mesh content hash) for this process."""
-    key = (tuple(dataclasses.asdict(geometry).items()), order, resolution)
+    key = (tuple(dataclasses.asdict(geometry).items()), order, resolution, joint)
     if key not in _MODELS:
         if len(_MODELS) >= _MAX_MODELS:
             _MODELS.pop(next(iter(_MODELS)))  # oldest first
-        model = PedicleJointModel(geometry, order=order, resolution=resolution)
+        model = PedicleJointModel(geometry, order=order, resolution=resolution, joint=joint)
         _MODELS[key] = (model, model.mesh.content_hash())
     return _MODELS[key]
 
@@ -118,7 +132,8 @@ def shared_model(settings: Mapping) -> tuple[PedicleJointModel, str]:
     order, resolution = settings.get("order", 2), settings.get("resolution", 1.0)
     _check_mesh(order, resolution)
     with _LOCK:
-        return _model(_geometry(settings.get("geometry")), int(order), float(resolution))
+        joint = _joint(settings.get("joint", "bonded"))
+        return _model(_geometry(settings.get("geometry")), int(order), float(resolution), joint)
 
 
 def evaluate_design(design: Mapping, settings: Mapping) -> dict:
@@ -132,7 +147,8 @@ def evaluate_design(design: Mapping, settings: Mapping) -> dict:
     settings : dict
         ``order`` (default 2), ``resolution`` (default 1.0), ``geometry``
         (dict of :class:`~isj.design.Geometry` fields, m), ``pressure_pa``
-        (default ``DEFAULT_PRESSURE_PA``); best made by :func:`fe_settings`.
+        (default ``DEFAULT_PRESSURE_PA``), ``joint`` (default ``"bonded"``); best made by
+        :func:`fe_settings`.
 
     Returns
     -------
@@ -162,9 +178,10 @@ def evaluate_design(design: Mapping, settings: Mapping) -> dict:
     _check_mesh(order, resolution)
     geometry = _geometry(settings.get("geometry"))
     pressure = check_pressure(settings.get("pressure_pa", DEFAULT_PRESSURE_PA))
+    joint = _joint(settings.get("joint", "bonded"))
     materials = Materials(**{k: float(v) for k, v in design.items()})
     with _LOCK:
-        model, mesh_hash = _model(geometry, int(order), float(resolution))
+        model, mesh_hash = _model(geometry, int(order), float(resolution), joint)
         res = model.solve(materials, pressure)
         n_dofs = int(model.n_dofs)
     return {
@@ -203,9 +220,10 @@ def evaluate_modes(design: Mapping, settings: Mapping) -> dict:
     geometry = _geometry(s.get("geometry"))
     order, resolution = s.get("order", 2), s.get("resolution", 1.0)
     _check_mesh(order, resolution)
+    joint = _joint(s.get("joint", "bonded"))
     materials = Materials(**{k: float(v) for k, v in design.items()})
     with _LOCK:
-        model, mesh_hash = _model(geometry, int(order), float(resolution))
+        model, mesh_hash = _model(geometry, int(order), float(resolution), joint)
         freq, shapes = modes(model, materials, n)
     u = shapes.reshape(-1, 3, shapes.shape[1])
     y_fraction = (u[:, 1, :] ** 2).sum(axis=0) / (u[:, 0, :] ** 2).sum(axis=0)

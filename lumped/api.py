@@ -27,7 +27,7 @@ import numpy as np
 from isj.design import DEFAULT_PRESSURE_PA, Geometry, InvalidParameter, Materials
 from isj.validate import check_frequencies
 
-from .artifact import Calibration, calibration_for, default_calibration
+from .artifact import Calibration, calibration_for, check_joint, default_calibration
 from .dynamics import OUTPUTS, UNITS, SecondOrderModel, chain_model
 from .ear import LumpedEar, ear_model
 from .model import MODULI, StaticResponse, moduli_arrays, static_response
@@ -120,6 +120,9 @@ class LumpedModel:
         ``calibration``, a geometry other than the default takes the shipped calibration over
         geometry and moduli (:func:`isj.lumped.artifact.geometry_calibration`); whether it lies
         inside the calibrated geometry: :attr:`outside_geometry`
+    joint : "bonded" or "sliding" (docs/lumped.md §3.14); without ``calibration``, it picks the
+        shipped calibration fitted on FE with that joint; with one, it must be the calibration's
+        joint. Default: the calibration's joint, else bonded
 
     Notes
     -----
@@ -129,21 +132,32 @@ class LumpedModel:
     :class:`isj.design.Materials`' defaults. Arrays broadcast against each other.
     """
 
-    def __init__(self, calibration: Calibration | None = None, geometry: Geometry | None = None):
+    def __init__(
+        self,
+        calibration: Calibration | None = None,
+        geometry: Geometry | None = None,
+        joint: str | None = None,
+    ):
         if calibration is not None and not isinstance(calibration, Calibration):
             raise InvalidParameter(
                 f"calibration: must be an isj.lumped.artifact.Calibration, not {type(calibration).__name__}"
             )
         if geometry is not None and not isinstance(geometry, Geometry):
             raise InvalidParameter(f"geometry: must be an isj.design.Geometry, not {type(geometry).__name__}")
+        if joint is not None:
+            check_joint(joint)
+            if calibration is not None and calibration.joint != joint:
+                raise InvalidParameter(
+                    f"joint = {joint!r}: the calibration was fitted with the {calibration.joint} joint"
+                )
         # another geometry than the default takes the calibration over geometry and moduli
-        self.calibration = calibration or calibration_for(geometry)
+        self.calibration = calibration or calibration_for(geometry, joint or "bonded")
         self.geometry = geometry or _fitted_geometry(self.calibration)
 
     @classmethod
-    def default(cls) -> LumpedModel:
-        """The model with the calibration that ships with isj."""
-        return cls(default_calibration())
+    def default(cls, joint: str = "bonded") -> LumpedModel:
+        """The model with the calibration that ships with isj for ``joint`` ("bonded" or "sliding")."""
+        return cls(default_calibration() if check_joint(joint) == "bonded" else None, joint=joint)
 
     @classmethod
     def load(cls, path: str | os.PathLike, geometry: Geometry | None = None) -> LumpedModel:
@@ -156,7 +170,7 @@ class LumpedModel:
     def __repr__(self) -> str:
         v = self.calibration.validation
         return (
-            f"LumpedModel(held-out max error alpha {v.get('max_alpha', math.nan):.3g}, "
+            f"LumpedModel({self.joint} joint, held-out max error alpha {v.get('max_alpha', math.nan):.3g}, "
             f"beta {v.get('max_beta', math.nan):.3g}; shear factor {self.shear_factor:.4g})"
         )
 
@@ -171,6 +185,11 @@ class LumpedModel:
     def shear_factor(self) -> float:
         """The chain's joint shear factor (dimensionless)."""
         return self.calibration.shear_factor
+
+    @property
+    def joint(self) -> str:
+        """The joint the calibration was fitted with: "bonded" or "sliding"."""
+        return self.calibration.joint
 
     @property
     def outside_geometry(self) -> dict[str, tuple[float, float, float]]:

@@ -26,6 +26,11 @@ FORMAT_VERSION = 4  # 2: the plate_support factor; 3: load_sharing; 4: root_plat
 #: scaling of lumped.model.GEOMETRY_EXPONENTS is 1).
 _ADDED_FACTORS = {2: {"load_sharing": 0.0, "root_plate": 0.0}, 3: {"root_plate": 0.0}}
 
+#: Joints a calibration may be fitted for (:data:`isj.fem.sliding.JOINTS` less the thin layer,
+#: whose shear modulus no calibration samples). A file without a ``joint`` is bonded: every
+#: calibration before the sliding joint (docs/lumped.md §3.14) was fitted on the bonded FE model.
+CALIBRATED_JOINTS: tuple[str, ...] = ("bonded", "sliding")
+
 
 @dataclass(frozen=True)
 class Calibration:
@@ -35,7 +40,8 @@ class Calibration:
     ``training``/``validation`` hold error statistics (relative, e.g.
     ``max_alpha``); ``fe_settings`` the FE model the factors were fitted to;
     ``dynamics`` the dynamic chain's calibration (``shear_factor`` and its f1, f2
-    errors, :func:`calibration.pipeline.calibrate_dynamics`), optional.
+    errors, :func:`calibration.pipeline.calibrate_dynamics`), optional; ``joint`` the FE
+    model's incudostapedial joint the factors were fitted on (:data:`CALIBRATED_JOINTS`).
     """
 
     factors: dict[str, float]
@@ -48,6 +54,7 @@ class Calibration:
     format: int = FORMAT_VERSION
     geometry_domain: dict[str, list[float]] = field(default_factory=dict)
     corners: dict = field(default_factory=dict)
+    joint: str = "bonded"
 
     def factor_array(self) -> np.ndarray:
         return np.array([self.factors[n] for n in FACTOR_NAMES], dtype=float)
@@ -133,7 +140,13 @@ class Calibration:
             raise CorruptCalibration(f"{source}: geometry_domain not a valid box ({exc!r})") from None
         if any(not (0 < lo <= hi) for lo, hi in gdomain.values()):
             raise CorruptCalibration(f"{source}: geometry_domain bounds must satisfy 0 < low <= high")
+        joint = d.get("joint", "bonded")
+        if joint not in CALIBRATED_JOINTS:
+            raise CorruptCalibration(
+                f"{source}: joint = {joint!r}, must be one of {', '.join(CALIBRATED_JOINTS)}"
+            )
         return cls(
+            joint=joint,
             factors=factors,
             domain=domain,
             geometry_domain=gdomain,
@@ -163,6 +176,9 @@ DEFAULT_CALIBRATION = "default_calibration.json"
 #: The shipped calibration over geometry and moduli together (docs/lumped.md §3.13).
 GEOMETRY_CALIBRATION = "geometry_calibration.json"
 
+#: The shipped calibration for the sliding joint, on the default geometry (docs/lumped.md §3.14).
+SLIDING_CALIBRATION = "sliding_calibration.json"
+
 
 def default_calibration() -> Calibration:
     """The calibration that ships with the package."""
@@ -178,11 +194,36 @@ def geometry_calibration() -> Calibration:
     return Calibration.from_dict(d, source="geometry calibration")
 
 
-def calibration_for(geometry=None) -> Calibration:
-    """The shipped calibration for ``geometry``: the default one for the default geometry
-    (or None), the geometry calibration (:func:`geometry_calibration`) for any other."""
+def sliding_calibration() -> Calibration:
+    """The shipped calibration for the sliding joint (default geometry; moduli as the default one's)."""
+    ref = resources.files("isj.lumped") / "data" / SLIDING_CALIBRATION
+    d = json.loads(ref.read_text())
+    return Calibration.from_dict(d, source="sliding calibration")
+
+
+def check_joint(joint) -> str:
+    """``joint`` if the shipped calibrations cover it, else InvalidParameter naming the valid ones."""
+    if joint not in CALIBRATED_JOINTS:
+        from isj.design import InvalidParameter
+
+        raise InvalidParameter(
+            f"joint = {joint!r}: the lumped model is calibrated for {' and '.join(CALIBRATED_JOINTS)} "
+            "joints only (the thin layer has no lumped calibration; isj fem solve --joint layer)"
+        )
+    return joint
+
+
+def calibration_for(geometry=None, joint: str = "bonded") -> Calibration:
+    """The shipped calibration for ``geometry`` and ``joint``.
+
+    Bonded: the default one for the default geometry (or None), the geometry calibration
+    (:func:`geometry_calibration`) for any other. Sliding: :func:`sliding_calibration`, fitted on
+    the default geometry only (another is outside it: :meth:`Calibration.outside_geometry`).
+    """
     from isj.design import Geometry
 
+    if check_joint(joint) == "sliding":
+        return sliding_calibration()
     if geometry is None or geometry == Geometry():
         return default_calibration()
     return geometry_calibration()

@@ -5,6 +5,7 @@ from __future__ import annotations
 from isj.errors import UsageError
 
 from . import _common as c
+from .lumped import add_joint_option
 
 #: Largest --samples and --validation: FE designs take seconds each, so 10 000 is hours of FE on
 #: a cluster, and the fit's matrices stay small.
@@ -56,6 +57,7 @@ def register(sub) -> None:
         default=1,
         help="FE worker processes with --geometry-domain (default 1)",
     )
+    add_joint_option(p, default="bonded", what="the FE model's joint the factors are fitted on")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=calibrate)
 
@@ -74,7 +76,7 @@ def calibrate(args) -> int:
     if args.geometry_domain and args.scheduler:
         raise UsageError("--geometry-domain runs on local processes (--workers): drop --scheduler")
     c.check_scheduler(args.scheduler)
-    settings = fe_settings(order=args.order, resolution=args.resolution)
+    settings = fe_settings(order=args.order, resolution=args.resolution, joint=args.joint)
     cache = fe_cache_dir(args.cache)
     if args.geometry_domain:
         cal = calibrate_geometry(
@@ -112,8 +114,8 @@ def calibrate(args) -> int:
     atomic_write_text(out, cal.to_json())
     t, v = cal.training, cal.validation
     print(
-        f"calibrated on {t['n']} FE designs: max error alpha {100 * t['max_alpha']:.2f} %, "
-        f"beta {100 * t['max_beta']:.2f} %"
+        f"calibrated on {t['n']} FE designs ({cal.joint} joint): max error "
+        f"alpha {100 * t['max_alpha']:.2f} %, beta {100 * t['max_beta']:.2f} %"
     )
     if v:
         print(

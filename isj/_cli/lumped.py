@@ -24,8 +24,29 @@ def register(sub) -> None:
     c.pressure_option(p)
     c.add_geometry_option(p)  # another geometry takes the shipped geometry calibration
     c.add_calibration_option(p)
+    add_joint_option(p)
     c.add_json_option(p)
     p.set_defaults(func=solve)
+
+
+def add_joint_option(p, default=None, what="the shipped calibration fitted with that joint") -> None:
+    """``--joint {bonded,sliding}``: the lumped model's joint (docs/lumped.md 3.14); layer is refused."""
+    import argparse
+
+    from isj.lumped.artifact import CALIBRATED_JOINTS
+
+    def joint(text: str) -> str:
+        if text not in CALIBRATED_JOINTS:
+            raise argparse.ArgumentTypeError(
+                f"--joint = {text}: must be one of {', '.join(CALIBRATED_JOINTS)} (the lumped model has "
+                "no calibration for the thin layer; isj fem solve --joint layer)"
+            )
+        return text
+
+    p.add_argument(
+        "--joint", type=joint, default=default, metavar="{" + ",".join(CALIBRATED_JOINTS) + "}",
+        help=f"the incudostapedial joint: {what} (default: bonded, or --calibration's joint)",
+    )  # fmt: skip
 
 
 def calibrated_nu(cal) -> float:
@@ -44,13 +65,16 @@ def calibration_and_geometry(args):
     from isj.design import Geometry
 
     g = c.geometry(args) if args.geometry else Geometry()
+    joint = getattr(args, "joint", None)
     if args.calibration:
         cal = c.load_calibration(args.calibration)
+        if joint is not None and joint != cal.joint:
+            raise UsageError(f"--joint = {joint}: --calibration was fitted with the {cal.joint} joint")
     else:
         from isj.lumped.artifact import CorruptCalibration, calibration_for
 
         try:
-            cal = calibration_for(g)
+            cal = calibration_for(g, joint or "bonded")
         except CorruptCalibration as exc:
             raise UsageError(str(exc)) from None
     warn_outside_geometry(cal, g)
@@ -74,6 +98,11 @@ def warn_outside_geometry(cal, geometry) -> int:
     return len(out)
 
 
+def _shipped_name(cal) -> str:
+    """The name of a shipped calibration: sliding, geometry or default."""
+    return "sliding" if cal.joint == "sliding" else ("geometry" if cal.geometry_domain else "default")
+
+
 def solve(args) -> int:
     from isj.calibration.checks import lumped_static, warn_outside_domain
 
@@ -94,7 +123,8 @@ def solve(args) -> int:
         "alpha_plus_beta_rad": float(r.sum_rad),
         "beta_over_alpha": float(r.ratio),
         "pressure_pa": args.pressure,
-        "calibration": args.calibration or ("default" if not cal.geometry_domain else "geometry"),
+        "calibration": args.calibration or _shipped_name(cal),
+        "joint": cal.joint,
         "validation": cal.validation,
     }
     c.check_finite(out, f"{c.design_inputs(args)}, --calibration {out['calibration']}")
@@ -103,7 +133,7 @@ def solve(args) -> int:
         return 0
     v = cal.validation
     print(
-        f"lumped model ({out['calibration']} calibration, validated max error alpha "
+        f"lumped model ({out['calibration']} calibration, {cal.joint} joint, validated max error alpha "
         f"{100 * v.get('max_alpha', float('nan')):.1f} %, beta {100 * v.get('max_beta', float('nan')):.1f} %)"
     )
     print(f"alpha      = {c.urad(out['alpha_rad'])} urad")
