@@ -156,13 +156,15 @@ def calibrate_geometry(
     geometry: GeometrySpace | None = None,
     max_workers: int | None = 1,
     progress: bool = True,
+    scheduler=None,
 ) -> Calibration:
     """:func:`calibrate` over geometry and moduli together (docs/lumped.md §3.13).
 
     Every design has its own moduli and dimensions (:func:`geometry_designs`); the fit sees each
     design's geometry through its own :class:`~isj.lumped.model.Lever`. The artifact records the
     geometric domain under ``geometry_domain`` and the errors at :func:`calibration.doe.mixed_corners`
-    under ``corners``.
+    under ``corners``. ``scheduler`` (a Dask address or client) runs the FE designs on a cluster
+    (:func:`calibration.runner.run_geometry_designs`) instead of ``max_workers`` local processes.
     """
     space = space or DesignSpace()
     geometry = geometry or GeometrySpace()
@@ -170,7 +172,7 @@ def calibrate_geometry(
     corners = mixed_corners(space, geometry)
     items = train + held + [(m, g) for _, m, g in corners]
     records = run_geometry_designs(
-        items, evaluate, settings, cache_dir, max_workers=max_workers, progress=progress
+        items, evaluate, settings, cache_dir, max_workers=max_workers, progress=progress, scheduler=scheduler
     )
     return geometry_calibration_from_records(
         records,

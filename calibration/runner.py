@@ -270,22 +270,32 @@ def _run_pool(todo: dict, evaluate, settings: dict, max_workers: int | None, sto
     pool.shutdown(wait=True)
 
 
-def _run_dask(todo: dict, evaluate, settings: dict, scheduler, store) -> None:
+def _dask_completed(scheduler, calls: dict):
+    """Yield ``(tag, future.result)`` for each call ``{tag: (fn, *args)}`` as the cluster finishes it.
+
+    The calls not yet finished when the caller stops are cancelled.
+    """
     from distributed import as_completed
 
     client, owned = _client_for(scheduler)
     try:
         # pure=False: a failed attempt under the same task key must not be reused on retry
-        pending = {client.submit(evaluate, design, settings, pure=False): key for key, design in todo.items()}
+        pending = {client.submit(*call, pure=False): tag for tag, call in calls.items()}
         try:
             for fut in as_completed(list(pending)):
-                store(pending.pop(fut), fut.result)
+                yield pending.pop(fut), fut.result
         finally:
             if pending:
                 client.cancel(list(pending))
     finally:
         if owned:
             client.close()
+
+
+def _run_dask(todo: dict, evaluate, settings: dict, scheduler, store) -> None:
+    calls = {key: (evaluate, design, settings) for key, design in todo.items()}
+    for key, outcome in _dask_completed(scheduler, calls):
+        store(key, outcome)
 
 
 def _run_group(designs: list, evaluate, settings: dict, cache_dir) -> list[dict]:
@@ -300,6 +310,7 @@ def run_geometry_designs(
     cache_dir: str | os.PathLike,
     max_workers: int | None = None,
     progress: bool = True,
+    scheduler=None,
 ) -> list[dict]:
     """:func:`run_designs` for designs that differ in geometry too: ``(moduli, dimensions)`` pairs.
 
@@ -307,6 +318,12 @@ def run_geometry_designs(
     the settings of its own geometry. Designs are grouped by geometry, one group per task, so a
     geometry is meshed and assembled once for all its moduli. ``max_workers`` worker processes
     (spawned; default 1; 0: this process). Records come back in input order.
+
+    ``scheduler`` (an address or a ``distributed.Client``, as for :func:`run_designs`) sends the
+    groups to a Dask cluster instead; ``max_workers`` is then ignored. A worker caches each design
+    as it finishes, in ``cache_dir`` as that worker sees it, so a group whose worker dies is redone
+    by another worker from its first uncached design when the directory is shared (one machine, or
+    a network file system). This process also caches every record it receives.
     """
     settings = _canonical(settings, "settings")
     groups: dict[str, tuple[dict, list[int]]] = {}
@@ -325,7 +342,18 @@ def run_geometry_designs(
             todo.append((s, idx, designs))
     bar = tqdm(total=len(todo), desc="FE geometries", unit="geometry", disable=None if progress else True)
     try:
-        if max_workers == 0:
+        if scheduler is not None:
+            # the scheduler reruns a lost worker's group elsewhere, from its first uncached design
+            where = str(cache.directory.absolute())
+            calls = {j: (_run_group, designs, evaluate, s, where) for j, (s, _, designs) in enumerate(todo)}
+            for j, outcome in _dask_completed(scheduler, calls):
+                for i, r in zip(todo[j][1], outcome(), strict=True):
+                    # a worker on another machine cached it in its own file system: keep a copy here
+                    out[i] = cache.get(r["key"]) or cache.put(
+                        r["key"], r["design"], r["settings"], r["result"]
+                    )
+                bar.update()
+        elif max_workers == 0:
             for s, idx, designs in todo:
                 for i, r in zip(idx, _run_group(designs, evaluate, s, cache_dir), strict=True):
                     out[i] = r

@@ -244,7 +244,9 @@ def test_unseen_designs_are_not_in_the_training_or_validation_samples():
         assert moduli not in seen
 
 
-def test_cli_calibrate_geometry_domain_refuses_a_scheduler(capsys, tmp_path):
+def test_cli_calibrate_geometry_domain_checks_its_scheduler_first(capsys, tmp_path):
+    # --geometry-domain runs on Dask too (tests/test_dask_cluster.py): an unreachable scheduler is
+    # one line naming --scheduler, before any FE run, and nothing written
     argv = [
         "calibrate",
         "--geometry-domain",
@@ -254,7 +256,9 @@ def test_cli_calibrate_geometry_domain_refuses_a_scheduler(capsys, tmp_path):
         str(tmp_path / "c.json"),
     ]
     assert main(argv) == 2
-    assert "--geometry-domain" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "--scheduler = 'tcp://127.0.0.1:1'" in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "c.json").exists()
 
 
 def test_cli_explore_accepts_geometry_inside_and_warns_outside(capsys):

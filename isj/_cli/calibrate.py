@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-from isj.errors import UsageError
-
 from . import _common as c
 from .lumped import add_joint_option
 
@@ -49,13 +47,13 @@ def register(sub) -> None:
         "--geometry-domain",
         action="store_true",
         help="sample the geometry (the dimensions and ranges of docs/lumped.md section 3.13) together "
-        "with the moduli; local processes only (--workers), no --scheduler",
+        "with the moduli; FE on --workers local processes, or on a Dask cluster with --scheduler",
     )
     p.add_argument(
         "--workers",
         type=c.int_option("--workers", 1, 64),
         default=1,
-        help="FE worker processes with --geometry-domain (default 1)",
+        help="FE worker processes with --geometry-domain and no --scheduler (default 1)",
     )
     add_joint_option(p, default="bonded", what="the FE model's joint the factors are fitted on")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
@@ -73,8 +71,6 @@ def calibrate(args) -> int:
     # every input, the output path, the model's size and the scheduler: before any FE run
     out = c.check_out_path(args.out, "--out", ".json")
     c.check_model_size(None, args.order, args.resolution)
-    if args.geometry_domain and args.scheduler:
-        raise UsageError("--geometry-domain runs on local processes (--workers): drop --scheduler")
     c.check_scheduler(args.scheduler)
     settings = fe_settings(order=args.order, resolution=args.resolution, joint=args.joint)
     cache = fe_cache_dir(args.cache)
@@ -88,6 +84,7 @@ def calibrate(args) -> int:
             seed=args.seed,
             max_workers=args.workers,
             progress=not args.quiet,
+            scheduler=args.scheduler,
         )
     else:
         cal = fit(
