@@ -41,7 +41,9 @@ class Calibration:
     ``max_alpha``); ``fe_settings`` the FE model the factors were fitted to;
     ``dynamics`` the dynamic chain's calibration (``shear_factor`` and its f1, f2
     errors, :func:`calibration.pipeline.calibrate_dynamics`), optional; ``joint`` the FE
-    model's incudostapedial joint the factors were fitted on (:data:`CALIBRATED_JOINTS`).
+    model's incudostapedial joint the factors were fitted on (:data:`CALIBRATED_JOINTS`);
+    ``region`` the map of where the factors hold their tolerance against the certified surrogate
+    (:mod:`calibration.region`, docs/lumped.md §3.15), optional.
     """
 
     factors: dict[str, float]
@@ -55,6 +57,7 @@ class Calibration:
     geometry_domain: dict[str, list[float]] = field(default_factory=dict)
     corners: dict = field(default_factory=dict)
     joint: str = "bonded"
+    region: dict = field(default_factory=dict)
 
     def factor_array(self) -> np.ndarray:
         return np.array([self.factors[n] for n in FACTOR_NAMES], dtype=float)
@@ -124,7 +127,7 @@ class Calibration:
             raise CorruptCalibration(f"{source}: factor(s) {', '.join(bad)} not finite and >= 0")
         if any(not (0 < lo <= hi) for lo, hi in domain.values()):
             raise CorruptCalibration(f"{source}: domain bounds must satisfy 0 < low <= high")
-        names = ("training", "validation", "fe_settings", "provenance", "dynamics", "corners")
+        names = ("training", "validation", "fe_settings", "provenance", "dynamics", "corners", "region")
         sections = {k: d.get(k, {}) for k in names}
         for k, v in sections.items():
             if not isinstance(v, dict):
@@ -156,6 +159,7 @@ class Calibration:
             fe_settings=dict(sections["fe_settings"]),
             provenance=dict(sections["provenance"]),
             dynamics=dict(dynamics),
+            region=_checked_region(sections["region"], domain, source),
         )
 
     @classmethod
@@ -169,6 +173,22 @@ class Calibration:
         if not isinstance(d, dict):
             raise CorruptCalibration(f"calibration {str(path)!r}: not a JSON object")
         return cls.from_dict(d, source=f"calibration {str(path)!r}")
+
+
+def _checked_region(region: dict, domain: dict, source: str) -> dict:
+    """The ``region`` block (calibration.region) if well formed: cells, ranged moduli, a full bit mask."""
+    if not region:
+        return {}
+    try:
+        cells, names = int(region["cells"]), list(region["moduli"])
+        bits = len(bytes.fromhex(region["outside"])) * 8
+        tol = float(region["tolerance"])
+        ok = cells >= 1 and all(k in domain for k in names) and bits >= cells ** len(names) and tol > 0
+    except (KeyError, TypeError, ValueError) as exc:
+        raise CorruptCalibration(f"{source}: region not a valid map ({exc!r})") from None
+    if not ok:
+        raise CorruptCalibration(f"{source}: region not a valid map (cells, moduli or bit mask)")
+    return dict(region)
 
 
 DEFAULT_CALIBRATION = "default_calibration.json"

@@ -5,6 +5,8 @@ no surrogate): started from wrong factors and a training set that sees a small c
 domain only, it must add designs where the model is worst and recover the known factors.
 """
 
+import dataclasses
+import json
 from types import SimpleNamespace
 
 import numpy as np
@@ -166,3 +168,44 @@ def test_adaptive_loop_refuses_bad_settings(option, value):
     oracle = LumpedOracle(truth, default_calibration().domain)
     with pytest.raises(InvalidParameter, match=option):
         adaptive_fit(default_calibration(), [], oracle, oracle.records, **{option: value})
+
+
+def test_region_map_marks_every_design_over_the_tolerance():
+    # the known model against an oracle 0.2 u^3 high on α over the gap's log-range u: the lumped
+    # error passes 3 % at u = 0.53 (certified: the bound is 1e-6)
+    from isj.calibration.region import build_region, in_region
+
+    truth = _truth()
+    cal = Calibration(
+        factors=dict(zip(FACTOR_NAMES, truth, strict=True)), domain=default_calibration().domain
+    )
+    oracle = LumpedOracle(truth, cal.domain)
+    lo, hi = np.log(1e6), np.log(50e6)
+    base = oracle.per_pa
+
+    def skewed(designs):
+        a, b = base(designs)
+        u = (np.log(np.asarray(designs["gap_e_pa"], dtype=float)) - lo) / (hi - lo)
+        return a * (1 + 0.2 * u**3), b
+
+    oracle.per_pa = skewed
+    region = build_region(cal, oracle, cells=6, n_sample=2**14, seed=0)
+    art = Calibration.from_dict(json.loads(dataclasses.replace(cal, region=region).to_json()))
+    assert art.region == region
+    # an independent sample: every design over 3 % is outside; designs well inside are inside
+    fresh = sample(DesignSpace.from_dict(cal.domain), 4096, seed=7)
+    cols = {k: np.array([d[k] for d in fresh]) for k in fresh[0]}
+    u = (np.log(cols["gap_e_pa"]) - lo) / (hi - lo)
+    err = 1 / (1 + 0.2 * u**3) - 1  # lumped / oracle − 1 on α (β exact)
+    inside = in_region(art.region, art.domain, cols)
+    assert not np.any(inside & (np.abs(err) > 0.03))
+    # the map is conservative by one cell (1/6 of the range) and the margin, no more
+    assert np.all(inside[u < (0.53 - 2 / 6)])
+    assert 0.3 < region["fraction_outside"] < 0.7
+    # a design outside the calibrated domain is outside the region
+    assert not in_region(
+        art.region,
+        art.domain,
+        {"gap_e_pa": np.array([1e5]), **{k: cols[k][:1] for k in cols if k != "gap_e_pa"}},
+    )[0]
+    assert in_region({}, art.domain, cols) is None
