@@ -292,3 +292,54 @@ def adaptive_calibration(calibration, result: AdaptiveResult, held_records: Sequ
         validation=error_stats(f, list(held_records), geometry) if held_records else {},
         provenance=dict(calibration.provenance) | {"adaptive": adaptive},
     )
+
+
+def calibrate_adaptive(
+    evaluate,
+    settings: dict,
+    cache_dir,
+    oracle,
+    *,
+    samples: int = 128,
+    validation: int = 64,
+    seed: int = 0,
+    scheduler=None,
+    progress: bool = True,
+    region_sample: int | None = None,
+    log: Callable[[str], None] | None = None,
+    **loop,
+):
+    """:func:`calibration.pipeline.calibrate`, then :func:`adaptive_fit` on its training records.
+
+    ``loop`` goes to :func:`adaptive_fit` (``tolerance``, ``n_dense``, ``per_round``,
+    ``max_rounds``, ...); the dense sample takes ``seed``. The artifact carries the loop under
+    ``provenance["adaptive"]`` and the map of the region where the tolerance holds under
+    ``region`` (:func:`calibration.region.build_region`, ``region_sample`` designs).
+    """
+    from .doe import DesignSpace, sample
+    from .pipeline import calibrate, records_for_fit
+    from .region import DEFAULT_MAP_SAMPLE, build_region
+    from .runner import run_designs
+
+    start = calibrate(
+        evaluate, settings, cache_dir, samples, validation, seed, scheduler=scheduler, progress=progress
+    )
+    space = DesignSpace.from_dict(start.domain)
+    train = sample(space, samples, seed, method="sobol")
+    held = sample(space, validation, seed + 1, method="lhs") if validation else []
+    recs = records_for_fit(run_designs(train + held, evaluate, settings, cache_dir, progress=False))
+    geometry = Geometry(**settings["geometry"]) if settings.get("geometry") else None
+    pressure = float(settings.get("pressure_pa", DEFAULT_PRESSURE_PA))
+    confirm = fe_confirm(evaluate, settings, cache_dir, progress)
+    res = adaptive_fit(
+        start, recs[: len(train)], oracle, confirm, seed=seed, geometry=geometry, pressure_pa=pressure,
+        refit_first=False, log=log, **loop,
+    )  # fmt: skip
+    options = {k: v for k, v in loop.items() if k != "log"} | {"seed": seed}
+    cal = adaptive_calibration(start, res, recs[len(train) :], settings, **options)
+    n_map = DEFAULT_MAP_SAMPLE if region_sample is None else int(region_sample)
+    tolerance = loop.get("tolerance", DEFAULT_TOLERANCE)
+    region = build_region(
+        cal, oracle, tolerance=tolerance, n_sample=n_map, seed=seed, pressure_pa=pressure, geometry=geometry
+    )
+    return dataclasses.replace(cal, region=region)

@@ -28,6 +28,7 @@ from isj.errors import InvalidParameter
 from .checks import StaticComparison, compare_static, lumped_static, warn_fe_settings, warn_outside_domain
 from .doe import Bounds, DesignSpace, _engine
 from .guard import DEFAULT_DENSE, DEFAULT_TOLERANCE, Guard, confirmations, run_guard, worst_picks
+from .region import in_region
 
 #: Most designs one exploration evaluates: about 6 arrays of 8 bytes each per design, ~2.4 GB.
 MAX_DESIGNS = 50_000_000
@@ -158,6 +159,9 @@ class Exploration:
         The set of each pick: ``explored``, or with a guard also ``corners`` or ``dense``.
     confirmations : list of dict
         FE against the surrogate at the picks (:func:`isj.calibration.guard.confirmations`).
+    in_region : numpy.ndarray or None
+        (n,) bool: the designs inside the calibration's map of where the lumped model holds its
+        tolerance (:func:`isj.calibration.region.in_region`); None for a calibration without one.
     """
 
     designs: dict[str, np.ndarray]
@@ -169,6 +173,7 @@ class Exploration:
     guard: Guard | None = None
     pick_sets: list[str] = field(default_factory=list)
     confirmations: list[dict] = field(default_factory=list)
+    in_region: np.ndarray | None = None
 
     @property
     def n_designs(self) -> int:
@@ -250,4 +255,5 @@ def explore(
         guard=guard,
         pick_sets=[name for name, _ in pairs],
         confirmations=confirmed,
+        in_region=in_region(calibration.region, calibration.domain, designs),
     )

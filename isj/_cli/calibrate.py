@@ -56,8 +56,61 @@ def register(sub) -> None:
         help="FE worker processes with --geometry-domain and no --scheduler (default 1)",
     )
     add_joint_option(p, default="bonded", what="the FE model's joint the factors are fitted on")
+    _adaptive_options(p)
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=calibrate)
+
+
+def _adaptive_options(p) -> None:
+    """``--adaptive`` and its loop's settings (docs/lumped.md section 3.15)."""
+    from isj.calibration.adaptive import DEFAULT_MAX_ROUNDS, DEFAULT_PER_ROUND
+    from isj.calibration.guard import DEFAULT_DENSE, MAX_DENSE
+
+    p.add_argument(
+        "--adaptive",
+        action="store_true",
+        help="then add training designs where the lumped model is worst (the certified surrogate of the "
+        "FE mesh over the corners and a dense sample; FE there) and refit, until the tolerance holds",
+    )
+    p.add_argument(
+        "--rounds",
+        type=c.int_option("--rounds", 0, 100),
+        default=DEFAULT_MAX_ROUNDS,
+        help=f"with --adaptive: most rounds, in [0, 100] (default {DEFAULT_MAX_ROUNDS})",
+    )
+    p.add_argument(
+        "--per-round",
+        type=c.int_option("--per-round", 1, 100),
+        default=DEFAULT_PER_ROUND,
+        help=f"with --adaptive: designs added per round, in [1, 100] (default {DEFAULT_PER_ROUND})",
+    )
+    p.add_argument(
+        "--guard-sample",
+        metavar="N",
+        type=c.int_option("--guard-sample", 0, MAX_DENSE),
+        default=DEFAULT_DENSE,
+        help=f"with --adaptive: dense Sobol designs guarded per round (default {DEFAULT_DENSE})",
+    )
+    p.add_argument(
+        "--tolerance",
+        type=c.float_option("--tolerance", lo=0.0),
+        default=0.03,
+        help="with --adaptive: largest certified relative error aimed at (default 0.03)",
+    )
+
+
+def _adaptive(args, settings, cache, rom):
+    """The calibration of ``isj calibrate --adaptive`` with the certified surrogate ``rom``."""
+    from isj.calibration.adaptive import calibrate_adaptive
+    from isj.fem.batch import evaluate_design
+
+    log = None if args.quiet else (lambda line: print(f"isj: adaptive {line}", flush=True))
+    return calibrate_adaptive(
+        evaluate_design, settings, cache, rom, samples=args.samples, validation=args.validation,
+        seed=args.seed, scheduler=args.scheduler, progress=not args.quiet, log=log,
+        tolerance=args.tolerance, n_dense=args.guard_sample, per_round=args.per_round,
+        max_rounds=args.rounds,
+    )  # fmt: skip
 
 
 def calibrate(args) -> int:
@@ -74,7 +127,19 @@ def calibrate(args) -> int:
     c.check_scheduler(args.scheduler)
     settings = fe_settings(order=args.order, resolution=args.resolution, joint=args.joint)
     cache = fe_cache_dir(args.cache)
-    if args.geometry_domain:
+    if args.adaptive:
+        from isj.errors import UsageError
+
+        from .explore import load_surrogate
+
+        if args.geometry_domain or args.joint != "bonded":
+            raise UsageError("--adaptive: the surrogate covers the bonded joint on one geometry; "
+                             "drop --geometry-domain and --joint")  # fmt: skip
+        rom, why = load_surrogate(args.order, args.resolution)  # minutes on a mesh's first build
+        if rom is None:
+            return c.fail(f"--adaptive needs the certified surrogate: {why}")
+        cal = _adaptive(args, settings, cache, rom)
+    elif args.geometry_domain:
         cal = calibrate_geometry(
             evaluate_design,
             settings,
@@ -126,6 +191,16 @@ def calibrate(args) -> int:
             f"chain model joint shear factor {cal.dynamics['shear_factor']:.3f}: first two in-plane natural "
             f"frequencies within {100 * dv['max_f1']:.1f} % and {100 * dv['max_f2']:.1f} % of FE on "
             f"{dv['n']} {'held-out' if cal.dynamics.get('validation') else 'training'} designs"
+        )
+    if cal.provenance.get("adaptive"):
+        from isj.calibration.region import region_summary
+
+        a = cal.provenance["adaptive"]
+        best = a["history"][a["best_round"]]
+        print(
+            f"adaptive: {a['n_added']} designs added in {a['best_round']} round(s) ({a['stop']}); worst "
+            f"certified error {100 * best['max_certified_error']:.2f} % over the corners and "
+            f"{a['n_dense']} dense designs; {region_summary(cal.region)}"
         )
     print(f"wrote {out}")
     return 0

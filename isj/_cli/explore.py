@@ -207,6 +207,7 @@ def explore(args) -> int:
         "spot_checks": checks,
         "max_spot_error": comp.max_abs_error(),
         "guard": g,
+        "region": _region_summary(cal, ex),
         "passed": not (n_failed or n_guard_failed or n_unconfirmed),
     }
     c.check_finite(summary, f"--pressure {args.pressure:g}")
@@ -215,7 +216,7 @@ def explore(args) -> int:
     if args.json:
         c.print_json(summary)
     else:
-        _print(args, ex, checks, g)
+        _print(args, ex, checks, g, summary["region"])
     if n_failed or n_guard_failed or n_unconfirmed:
         parts = [
             f"{n_failed} FE spot check(s) of explored designs exceed the tolerance {args.tolerance:g}"
@@ -227,11 +228,19 @@ def explore(args) -> int:
     return 0
 
 
+def _region_summary(cal, ex) -> dict | None:
+    """How many explored designs lie outside the calibration's map of its tolerance (None: no map)."""
+    if ex.in_region is None:
+        return None
+    n_out = int(ex.in_region.size - ex.in_region.sum())
+    return {"tolerance": float(cal.region["tolerance"]), "n_outside": n_out, "n": int(ex.in_region.size)}
+
+
 def _pct(x) -> str:
     return "n/a" if x is None else f"{100 * x:.2f} %"
 
 
-def _print(args, ex, checks, g) -> None:
+def _print(args, ex, checks, g, region=None) -> None:
     lum, u = ex.lumped, c.urad
     print(
         f"lumped model: {ex.n_designs} designs in {ex.lumped_time_s * 1e3:.2f} ms; alpha "
@@ -273,6 +282,13 @@ def _print(args, ex, checks, g) -> None:
         f" ({n_other} of them outside the explored designs: reported, they fail nothing)" if n_other else ""
     )
     print(f"{n_ok}/{len(checks)} spot checks within {100 * args.tolerance:g} %{note}")
+    if region and region["n_outside"]:
+        r = region
+        print(
+            f"{r['n_outside']}/{r['n']} explored designs lie OUTSIDE the region where the lumped model holds "
+            f"{100 * r['tolerance']:g} % (certified; in_region = false in designs.csv, the surrogate's "
+            "values beside the lumped ones)"
+        )
 
 
 # ---- --out -----------------------------------------------------------------------------------------
@@ -286,14 +302,15 @@ def columns() -> list[str]:
     for k, kb in GUARDED.items():
         out += [f"surrogate_{k}", f"surrogate_{kb}"]
     out += [f"{short(k)}_rel_error" for k in GUARDED] + [f"{short(k)}_certified_error" for k in GUARDED]
-    return out + ["max_certified_error", "verdict"]
+    return out + ["max_certified_error", "verdict", "in_region"]
 
 
 UNITS = (
     "*_e_pa Pa; *_rad rad; beta_over_alpha and its bound dimensionless; "
     "*_rel_error = lumped / surrogate - 1, "
     "*_certified_error = max |lumped / FE - 1| allowed by the surrogate's bound, both relative; "
-    "verdict ok|fail|outside|unguarded"
+    "verdict ok|fail|outside|unguarded; "
+    "in_region true|false|n/a: inside the calibration's map of where the lumped model holds its tolerance"
 )
 
 
@@ -319,6 +336,10 @@ def design_table(ex) -> dict:
         cols |= {"lumped_alpha_rad": a, "lumped_beta_rad": b, "lumped_beta_over_alpha": b / a}
         cols |= {k: np.full(n, np.nan) for k in columns() if k not in cols}
         cols["verdict"] = np.full(n, "unguarded")
+    marks = {True: "true", False: "false"}
+    cols["in_region"] = (
+        np.full(n, "n/a") if ex.in_region is None else np.array([marks[bool(v)] for v in ex.in_region])
+    )
     return {k: np.asarray(cols[k]) for k in [*MODULI, *columns()]}
 
 

@@ -106,6 +106,8 @@ def _shipped_name(cal) -> str:
 def solve(args) -> int:
     from isj.calibration.checks import lumped_static, warn_outside_domain
 
+    from ._region import print_region, region_marks
+
     cal, geometry = calibration_and_geometry(args)
     nu = calibrated_nu(cal)
     if args.nu is not None and args.nu != nu:
@@ -127,6 +129,7 @@ def solve(args) -> int:
         "joint": cal.joint,
         "validation": cal.validation,
     }
+    out |= region_marks(cal, designs, geometry, args.pressure)  # docs/lumped.md section 3.15
     c.check_finite(out, f"{c.design_inputs(args)}, --calibration {out['calibration']}")
     if args.json:
         c.print_json(out)
@@ -141,4 +144,6 @@ def solve(args) -> int:
     print(
         f"alpha+beta = {c.urad(out['alpha_plus_beta_rad'])} urad   beta/alpha = {out['beta_over_alpha']:.3f}"
     )
+    print_region(out)
     return 0
+
