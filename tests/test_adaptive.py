@@ -209,3 +209,72 @@ def test_region_map_marks_every_design_over_the_tolerance():
         {"gap_e_pa": np.array([1e5]), **{k: cols[k][:1] for k in cols if k != "gap_e_pa"}},
     )[0]
     assert in_region({}, art.domain, cols) is None
+
+
+def _mapped_calibration(tmp_path, outside_low_gap: bool):
+    """The shipped calibration with a 2-cell map whose low-gap half is outside (or nothing is)."""
+    cal = default_calibration()
+    names = [k for k in MODULI if k in cal.domain]
+    mask = np.zeros((2,) * len(names), dtype=bool)
+    if outside_low_gap:
+        mask[(slice(None),) * names.index("gap_e_pa") + (0,)] = True
+    region = {
+        "tolerance": 0.03,
+        "cells": 2,
+        "moduli": names,
+        "outside": np.packbits(mask.ravel()).tobytes().hex(),
+    }
+    path = tmp_path / "cal.json"
+    path.write_text(dataclasses.replace(cal, region=region).to_json())
+    return cal, str(path)
+
+
+def test_lumped_solve_marks_a_design_outside_the_region(tmp_path, capsys, monkeypatch):
+    from isj._cli import _region
+    from isj.cli import main
+
+    cal, path = _mapped_calibration(tmp_path, outside_low_gap=True)
+    oracle = LumpedOracle(_truth() * 1.1, cal.domain, rel=1e-3)  # a stand-in surrogate, 10 % stiffer
+    monkeypatch.setattr(_region, "cached_surrogate", lambda *a, **k: (oracle, None))
+
+    def solve(*argv):
+        assert main(["lumped", "solve", "--calibration", path, "--json", *argv]) == 0
+        return json.loads(capsys.readouterr().out)
+
+    inside = solve("--gap-e", "20e6")
+    assert inside["region"] == {"tolerance": 0.03, "inside": True} and "surrogate" not in inside
+    out = solve("--gap-e", "2e6")
+    assert out["region"] == {"tolerance": 0.03, "inside": False}
+    s = out["surrogate"]  # the stand-in's values at the design, beside the lumped ones
+    a, b = oracle.per_pa(dict(gap_e_pa=np.array([2e6])))
+    assert s["alpha_rad"] == pytest.approx(a[0] * P, rel=1e-12) and s["beta_rad"] == pytest.approx(b[0] * P)
+    assert s["alpha_bound_rad"] == pytest.approx(1e-3 * s["alpha_rad"])
+    assert out["alpha_rad"] == pytest.approx(s["alpha_rad"] * 1.1, rel=0.05)  # lumped: the shipped factors
+    # not built: the note says how, nothing is built
+    monkeypatch.setattr(_region, "cached_surrogate", lambda *a, **k: (None, "not built yet (isj rom build)"))
+    out = solve("--gap-e", "2e6")
+    assert out["surrogate"] is None and "isj rom build" in out["surrogate_note"]
+    assert main(["lumped", "solve", "--calibration", path, "--gap-e", "2e6"]) == 0
+    text = capsys.readouterr().out
+    assert "OUTSIDE the region" in text and "not built yet" in text
+    # the shipped calibration's own answer carries its region block (None: no map)
+    assert main(["lumped", "solve", "--json"]) == 0
+    shipped = json.loads(capsys.readouterr().out)
+    assert ("region" in shipped) and (shipped["region"] is None) == (not default_calibration().region)
+
+
+def test_explore_marks_designs_outside_the_region(tmp_path, capsys):
+    from isj.cli import main
+
+    _, path = _mapped_calibration(tmp_path, outside_low_gap=True)
+    out = tmp_path / "out"
+    argv = ["explore", "--calibration", path, "--gap-e", "1e6:50e6", "--n", "5", "--no-guard"]
+    assert main([*argv, "--spot-checks", "0", "--json", "--out", str(out)]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    # 5 gaps, log-spaced over the range: 1, 2.66, 7.07 MPa lie in the low half (cell 0), 18.8 and 50 not
+    assert summary["region"] == {"tolerance": 0.03, "n_outside": 3, "n": 5}
+    rows = (out / "designs.csv").read_text().splitlines()
+    head = rows[1].split(",")
+    cols = [dict(zip(head, r.split(","), strict=True)) for r in rows[2:]]
+    marks = {float(r["gap_e_pa"]): r["in_region"] for r in cols}
+    assert [marks[g] for g in sorted(marks)] == ["false", "false", "false", "true", "true"]
