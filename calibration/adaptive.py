@@ -44,6 +44,9 @@ DEFAULT_MAX_ROUNDS = 12
 #: A round counts as progress when the worst certified error falls by at least this (relative).
 DEFAULT_MIN_GAIN = 0.01
 
+#: L^p norm of the refits: close to the largest error, still smooth for IPOPT.
+DEFAULT_NORM = 8
+
 #: Rounds without progress before the loop stops.
 DEFAULT_PATIENCE = 3
 
@@ -102,9 +105,9 @@ def _round_summary(k: int, n_train: int, guard: Guard) -> dict:
     }
 
 
-def _refit(records, geometry, factors):
+def _refit(records, geometry, factors, norm):
     """Refit from ``factors`` (a factor at 0, a term switched off, starts at the fit's floor)."""
-    return fit_factors(records, geometry, x0=np.maximum(factors, np.exp(-LOG_BOUND)))
+    return fit_factors(records, geometry, x0=np.maximum(factors, np.exp(-LOG_BOUND)), norm=norm)
 
 
 def _design(design: dict, domain) -> dict[str, float]:
@@ -142,6 +145,7 @@ def adaptive_fit(
     geometry: Geometry | None = None,
     pressure_pa: float = DEFAULT_PRESSURE_PA,
     refit_first: bool = False,
+    norm: float = DEFAULT_NORM,
     log: Callable[[str], None] | None = None,
 ) -> AdaptiveResult:
     """Add training designs where the lumped model is worst until it holds ``tolerance`` everywhere.
@@ -165,6 +169,9 @@ def adaptive_fit(
     max_rounds, min_gain, patience : stopping rules (module constants).
     refit_first : bool
         Refit on ``records`` before the first round (the starting factors otherwise).
+    norm : float
+        The refits' L^p norm of the relative errors (:func:`isj.calibration.fit.fit_factors`):
+        the loop aims at the largest error, so p = 8 by default rather than least squares.
     log : callable, optional
         Called with one line per round.
     """
@@ -177,7 +184,7 @@ def adaptive_fit(
     factors = np.asarray(calibration.factor_array(), dtype=float)
     iterations = calibration.training.get("ipopt_iterations")
     if refit_first:
-        fit = _refit(records, geometry, factors)
+        fit = _refit(records, geometry, factors, norm)
         factors, iterations = fit.factors, fit.iterations
     history, added, guards, fits = [], [], [], []
     seen = {tuple(sorted(r["design"].items())) for r in records}
@@ -230,7 +237,7 @@ def adaptive_fit(
                 }
             )
         records += list(new)
-        fit = _refit(records, geometry, factors)
+        fit = _refit(records, geometry, factors, norm)
         factors, iterations = fit.factors, fit.iterations
     b = int(np.argmin([h["max_certified_error"] for h in history]))
     n_train = history[b]["n_train"]
@@ -333,9 +340,10 @@ def calibrate_adaptive(
     confirm = fe_confirm(evaluate, settings, cache_dir, progress)
     res = adaptive_fit(
         start, recs[: len(train)], oracle, confirm, seed=seed, geometry=geometry, pressure_pa=pressure,
-        refit_first=False, log=log, **loop,
+        refit_first=True, log=log, **loop,
     )  # fmt: skip
-    options = {k: v for k, v in loop.items() if k != "log"} | {"seed": seed}
+    options = {"norm": DEFAULT_NORM, "n_dense": DEFAULT_DENSE, "tolerance": DEFAULT_TOLERANCE}
+    options |= {"per_round": DEFAULT_PER_ROUND, "max_rounds": DEFAULT_MAX_ROUNDS} | loop | {"seed": seed}
     cal = adaptive_calibration(start, res, recs[len(train) :], settings, **options)
     n_map = DEFAULT_MAP_SAMPLE if region_sample is None else int(region_sample)
     tolerance = loop.get("tolerance", DEFAULT_TOLERANCE)

@@ -19,12 +19,16 @@ from isj.errors import CorruptCalibration  # noqa: F401 - re-exported, its old h
 
 from .model import FACTOR_NAMES
 
-FORMAT_VERSION = 4  # 2: the plate_support factor; 3: load_sharing; 4: root_plate (lumped.model)
+FORMAT_VERSION = 5  # 2: plate_support; 3: load_sharing; 4: root_plate; 5: pedicle_face (lumped.model)
 
 #: Factors a file of an older format lacks, with the value that makes the current
 #: equations those of that format exactly (on the default geometry, where every geometric
 #: scaling of lumped.model.GEOMETRY_EXPONENTS is 1).
-_ADDED_FACTORS = {2: {"load_sharing": 0.0, "root_plate": 0.0}, 3: {"root_plate": 0.0}}
+_ADDED_FACTORS = {
+    2: {"load_sharing": 0.0, "root_plate": 0.0, "pedicle_face": 0.0},
+    3: {"root_plate": 0.0, "pedicle_face": 0.0},
+    4: {"pedicle_face": 0.0},
+}
 
 #: Joints a calibration may be fitted for (:data:`isj.fem.sliding.JOINTS` less the thin layer,
 #: whose shear modulus no calibration samples). A file without a ``joint`` is bonded: every

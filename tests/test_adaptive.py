@@ -278,3 +278,39 @@ def test_explore_marks_designs_outside_the_region(tmp_path, capsys):
     cols = [dict(zip(head, r.split(","), strict=True)) for r in rows[2:]]
     marks = {float(r["gap_e_pa"]): r["in_region"] for r in cols}
     assert [marks[g] for g in sorted(marks)] == ["false", "false", "false", "true", "true"]
+
+
+@pytest.mark.parametrize(
+    ("moduli", "dims", "alpha_hex", "beta_hex"),
+    [
+        (
+            {
+                "pedicle_e_pa": 3e9,
+                "gap_e_pa": 20e6,
+                "capsule_e_pa": 150e6,
+                "plate_e_pa": 0.6e9,
+                "stapes_e_pa": 2e9,
+            },
+            {"plate_thickness_m": 48e-6, "pedicle_x_m": 60e-6},
+            "0x1.1039a39e5314fp-25",
+            "0x1.313c218b129d7p-21",
+        ),
+        (
+            {"pedicle_e_pa": 25e9, "gap_e_pa": 2e6, "capsule_e_pa": 20e6},
+            {},
+            "0x1.981da959a49a6p-23",
+            "0x1.c69875380fdb5p-23",
+        ),
+    ],
+)
+def test_format_4_geometry_calibration_reproduces_its_old_results_bit_for_bit(
+    moduli, dims, alpha_hex, beta_hex
+):
+    # α, β per pascal of the shipped geometry calibration (format 4) computed by lumped/model.py as
+    # it was before the pedicle_face term (format 5); the file loads with pedicle_face = 0
+    from isj.lumped.artifact import geometry_calibration
+
+    cal = geometry_calibration()
+    assert cal.factors["pedicle_face"] == 0.0
+    a, b = equations(moduli_arrays(**moduli), cal.factor_array(), Lever.from_geometry(Geometry(**dims)))
+    assert float(a).hex() == alpha_hex and float(b).hex() == beta_hex

@@ -32,7 +32,7 @@ def synthetic_records(factors, n=40, seed=3):
 
 
 def test_recovers_known_factors_exactly():
-    true = np.array([0.98, 5.2, 2.7, 0.07, 1.15, 0.43, 0.04, 0.15, 0.76, 0.3, 0.05, 4.5, 0.0])
+    true = np.array([0.98, 5.2, 2.7, 0.07, 1.15, 0.43, 0.04, 0.15, 0.76, 0.3, 0.05, 4.5, 0.0, 0.2])
     assert true.size == len(FACTOR_NAMES)
     res = fit_factors(synthetic_records(true))
     assert res.status == "Solve_Succeeded"
