@@ -255,14 +255,28 @@ def adaptive_fit(
 
 
 def fe_confirm(
-    evaluate, settings: dict, cache_dir, progress: bool = False
+    evaluate, settings: dict, cache_dir, progress: bool = False, scheduler=None
 ) -> Callable[[list[dict]], list[dict]]:
-    """``confirm`` for :func:`adaptive_fit`: FE through the runner (cached), as fit records."""
+    """``confirm`` for :func:`adaptive_fit`: FE through the runner (cached), as fit records.
+
+    Without a scheduler the few designs of a round run in this process (``max_workers=0``): no
+    worker start-up, and the FE model memoised by ``evaluate`` serves every round.
+    """
     from .pipeline import records_for_fit
     from .runner import run_designs
 
     def confirm(designs: list[dict]) -> list[dict]:
-        return records_for_fit(run_designs(designs, evaluate, settings, cache_dir, progress=progress))
+        workers = None if scheduler is not None else 0
+        recs = run_designs(
+            designs,
+            evaluate,
+            settings,
+            cache_dir,
+            scheduler=scheduler,
+            max_workers=workers,
+            progress=progress,
+        )
+        return records_for_fit(recs)
 
     return confirm
 
@@ -337,7 +351,7 @@ def calibrate_adaptive(
     recs = records_for_fit(run_designs(train + held, evaluate, settings, cache_dir, progress=False))
     geometry = Geometry(**settings["geometry"]) if settings.get("geometry") else None
     pressure = float(settings.get("pressure_pa", DEFAULT_PRESSURE_PA))
-    confirm = fe_confirm(evaluate, settings, cache_dir, progress)
+    confirm = fe_confirm(evaluate, settings, cache_dir, progress, scheduler)
     res = adaptive_fit(
         start, recs[: len(train)], oracle, confirm, seed=seed, geometry=geometry, pressure_pa=pressure,
         refit_first=True, log=log, **loop,

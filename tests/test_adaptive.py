@@ -314,3 +314,13 @@ def test_format_4_geometry_calibration_reproduces_its_old_results_bit_for_bit(
     assert cal.factors["pedicle_face"] == 0.0
     a, b = equations(moduli_arrays(**moduli), cal.factor_array(), Lever.from_geometry(Geometry(**dims)))
     assert float(a).hex() == alpha_hex and float(b).hex() == beta_hex
+
+
+def test_calibrate_adaptive_refuses_the_geometry_domain_and_other_joints(tmp_path, capsys):
+    from isj.cli import main
+
+    for extra in (["--geometry-domain"], ["--joint", "sliding"]):
+        code = main(["calibrate", "--adaptive", *extra, "--out", str(tmp_path / "c.json")])
+        err = capsys.readouterr().err
+        assert code == 2 and "--adaptive" in err and len(err.strip().splitlines()) == 1
+        assert not (tmp_path / "c.json").exists()
