@@ -1,4 +1,4 @@
-"""Disk cache of meshes, keyed by a hash of everything the mesh depends on.
+"""Disk cache of meshes, keyed by a hash of everything the mesh depends on, and of solver orderings.
 
 Key: sha256 of the canonical JSON of (kind, geometry fields, mesh sizes,
 resolution, gmsh version, :data:`MESH_FORMAT_VERSION`, and the digest of the
@@ -8,6 +8,11 @@ Entries are ``.npz`` files (no pickles) with a checksum of their arrays
 (:mod:`isj.cachefile`), written atomically. An entry that cannot be read, fails
 its checksum or whose mesh content hash does not match is reported with one
 :class:`~isj.errors.CorruptCacheEntry` warning, deleted and recomputed, never used.
+
+PARDISO's fill-reducing ordering (450 kB for the default mesh) is kept beside
+the meshes the same way, keyed by the pattern it was made for
+(:func:`fem.solvers.ordering_key`): a later process skips METIS, about a third
+of PARDISO's analysis, and gets the same bits (docs/performance.md §8.2).
 """
 
 from __future__ import annotations
@@ -153,3 +158,64 @@ def cached_mesh(
     except OSError as exc:
         warnings.warn(f"could not write mesh cache entry {path}: {exc}", CacheWarning, stacklevel=3)
     return mesh
+
+
+# --------------------------------------------------------------------------- solver orderings
+
+#: Bump whenever the stored ordering's layout changes.
+ORDERING_FORMAT_VERSION = 1
+
+
+def ordering_path(directory: Path, key: str) -> Path:
+    """The entry of the fill-reducing ordering with key ``key`` (:func:`fem.solvers.ordering_key`)."""
+    return directory / f"ordering-{key[:32]}.npz"
+
+
+def load_ordering(directory: Path | None, key: str, n: int) -> np.ndarray | None:
+    """The cached 1-based ordering of ``n`` unknowns under ``key``, or None if there is none.
+
+    An entry that fails its checksum, was made for another key or is not a
+    permutation of 1..n (PARDISO would crash on it) is reported with one
+    :class:`~isj.errors.CorruptCacheEntry` warning, deleted, and None returned.
+    """
+    if directory is None:
+        return None
+    path = ordering_path(directory, key)
+    if not path.exists():
+        return None
+    try:
+        z, _ = read_npz_entry(path)
+        try:
+            if int(z["format"]) != ORDERING_FORMAT_VERSION or str(z["key"]) != key:
+                raise DamagedEntry("made for another key or format")
+            perm = np.asarray(z["perm"])
+        except (KeyError, TypeError, ValueError) as exc:
+            raise DamagedEntry(f"{type(exc).__name__}: {exc}") from exc
+        if (
+            perm.dtype != np.int32
+            or perm.shape != (n,)
+            or not np.array_equal(np.sort(perm), np.arange(1, n + 1))
+        ):
+            raise DamagedEntry(f"not a permutation of 1..{n}")
+    except DamagedEntry as exc:
+        discard(path, "solver ordering", str(exc), stacklevel=3)
+        return None
+    return perm
+
+
+def store_ordering(directory: Path | None, key: str, perm: np.ndarray) -> None:
+    """Write a 1-based ordering under ``key`` atomically; a cache that cannot be written costs a warning."""
+    if directory is None:
+        return
+    path = ordering_path(directory, key)
+    arrays = {
+        "perm": np.asarray(perm, dtype=np.int32),
+        "key": np.array(key),
+        "format": np.array(ORDERING_FORMAT_VERSION),
+    }
+    try:
+        write_npz_entry(path, arrays)
+    except OSError as exc:
+        warnings.warn(
+            f"could not write solver ordering cache entry {path}: {exc}", CacheWarning, stacklevel=3
+        )

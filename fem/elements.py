@@ -13,7 +13,6 @@ from __future__ import annotations
 from functools import cache
 
 import numpy as np
-from scipy.special import roots_jacobi
 
 #: Vertex pairs of the P2 mid-edge nodes, in VTK tetra10 order.
 TET10_EDGES = np.array([[0, 1], [1, 2], [0, 2], [0, 3], [1, 3], [2, 3]], dtype=np.int64)
@@ -34,6 +33,10 @@ def tet_quadrature(n: int) -> tuple[np.ndarray, np.ndarray]:
     -------
     points : (n**3, 3) reference coordinates; weights : (n**3,)
     """
+    # imported here: scipy.special costs 0.15–0.2 s of every CLI start, and the
+    # static solve never needs this rule (docs/performance.md §8.2)
+    from scipy.special import roots_jacobi
+
     # ∫_0^1 f(t) (1 − t)^a dt = 2^-(a+1) Σ w_i f((1 + x_i)/2) with Jacobi(a, 0) nodes x_i
     rules = []
     for a in (2, 1, 0):

@@ -3,7 +3,9 @@
 One function, :func:`make_solver`, picks a backend; every backend analyses the
 sparsity pattern once (ordering, symbolic factorization) and then factors any
 matrix with the same pattern, so a new set of moduli costs one numeric
-factorization and load cases cost one triangular solve each.
+factorization and load cases cost one triangular solve each. PARDISO's
+ordering can also be kept on disk per pattern (``ordering_cache``), so that
+another process skips METIS.
 
 Backends, in order of preference as measured on this model (P2, default mesh,
 113k dofs, 2 cores): analysis + numeric factorization
@@ -14,6 +16,9 @@ Backends, in order of preference as measured on this model (P2, default mesh,
   ``apt-get install libsuitesparse-dev libopenblas0-pthread`` and
   ``pip install scikit-sparse==0.4.16``): 1.9 s + 3.1 s with OpenBLAS, 2.2 s +
   10.5 s with Debian's reference BLAS;
+- not kept: ``cholespy`` (CHOLMOD in a PyPI wheel, reference BLAS, no
+  refactorization): 20 s CPU for analysis + factorization against PARDISO's
+  2.8 s; ``python-mumps`` has no wheel (docs/performance.md §8.2);
 - ``"superlu"`` — scipy's SuperLU (always available; LU, no reuse of the
   analysis; scikit-fem's default solve through it took 18× PARDISO's time on the
   default mesh, ``benchmarks/fem_speed.py``).
@@ -45,9 +50,11 @@ without (2 threads), 1.6 s against 1.8 s (1 thread); no cost above the noise.
 from __future__ import annotations
 
 import ctypes
+import hashlib
 import importlib.util
 import os
 import threading
+from pathlib import Path
 
 import numpy as np
 import scipy.sparse as sp
@@ -104,6 +111,39 @@ def solver_threads() -> int:
         return os.cpu_count() or 1
 
 
+def _mkl_rt_path() -> str | None:
+    """MKL's runtime library as the ``mkl`` wheel lists it, or None (then pypardiso searches).
+
+    Without ``$PYPARDISO_MKL_RT`` pypardiso looks for it with
+    ``ctypes.util.find_library`` (which runs ``ldconfig`` and the compiler in
+    subprocesses) and then with a recursive glob of the environment, at its
+    import and again for every solver object: 0.3–0.8 s per ``isj fem solve``
+    on 2 cores (docs/performance.md §8.2).
+    """
+    try:
+        from importlib.metadata import PackageNotFoundError, files
+    except ImportError:  # pragma: no cover
+        return None
+    try:
+        found = [f for f in files("mkl") or () if f.name.startswith("libmkl_rt.so")]
+    except PackageNotFoundError:
+        return None
+    paths = sorted(str(f.locate()) for f in found)
+    return next((p for p in paths if os.path.exists(p)), None)
+
+
+def _pypardiso():
+    """pypardiso, imported with ``$PYPARDISO_MKL_RT`` pointing at MKL (see :func:`_mkl_rt_path`)."""
+    if "PYPARDISO_MKL_RT" not in os.environ:
+        path = _mkl_rt_path()
+        if path is not None:
+            # pypardiso's documented setting; inherited by child processes, which load the same MKL
+            os.environ["PYPARDISO_MKL_RT"] = path
+    import pypardiso
+
+    return pypardiso
+
+
 def pin_solver_threads(libmkl=None) -> dict[str, int]:
     """Fix MKL's threading layer and thread count for the rest of the process (idempotent).
 
@@ -119,9 +159,7 @@ def pin_solver_threads(libmkl=None) -> dict[str, int]:
     with _PIN_LOCK:
         if not _PINNED:
             if libmkl is None:
-                import pypardiso
-
-                libmkl = pypardiso.ps.libmkl
+                libmkl = _pypardiso().ps.libmkl
             n = solver_threads()
             layer = libmkl.MKL_Set_Threading_Layer(ctypes.c_int(_MKL_THREADING_GNU))
             libmkl.MKL_Set_Num_Threads(ctypes.c_int(n))
@@ -146,8 +184,7 @@ def available_backends() -> list[str]:
     have = []
     if importlib.util.find_spec("pypardiso") is not None:
         try:
-            import pypardiso  # noqa: F401  (loads libmkl_rt; may fail on odd machines)
-
+            _pypardiso()  # loads libmkl_rt; may fail on odd machines
             have.append("pardiso")
         except Exception:  # pragma: no cover - depends on the machine
             pass
@@ -198,11 +235,10 @@ class PardisoSolver:
     mtype = 2
     dtype = np.float64
 
-    def __init__(self, A: sp.csr_matrix, perm: np.ndarray | None = None):
-        import pypardiso
-
+    def __init__(self, A: sp.csr_matrix, perm: np.ndarray | None = None, upper: _Upper | None = None):
+        pypardiso = _pypardiso()
         n = A.shape[0]
-        self._upper = _Upper(A)
+        self._upper = upper if upper is not None else _Upper(A)
         # a fresh solver object per pattern: pypardiso's own spsolve caches by hash
         self._ps = pypardiso.PyPardisoSolver(mtype=self.mtype)
         threads = pin_solver_threads(self._ps.libmkl)["threads"]  # before the first MKL call below
@@ -217,23 +253,67 @@ class PardisoSolver:
         else:
             self._ps.perm = np.zeros(n, dtype=np.int32)
             self._ps.iparm[4] = 2  # iparm(5) = 2: return the ordering in perm
-        self._U = self._upper(A.astype(self.dtype, copy=False))
-        self._ps.set_phase(11)  # ordering and symbolic factorization, once
-        self._ps._call_pardiso(self._U, np.zeros((n, 1), dtype=self.dtype))
+        # PARDISO's 1-based pattern, made once (pypardiso's own call converts it at every call)
+        self._ia = self._upper.indptr + np.int32(1)
+        self._ja = self._upper.indices + np.int32(1)
+        self._data = self._upper_data(A)
+        self._call(11, np.zeros((n, 1), dtype=self.dtype))  # ordering and symbolic factorization, once
         self.perm = self._ps.perm
 
     def _configure(self, iparm: np.ndarray) -> None:
         """Adjust MKL's defaults (0-based ``iparm``) for this matrix type."""
 
+    @property
+    def upper_mask(self) -> np.ndarray:
+        """Which entries of the analysed (sorted CSR) matrix's data PARDISO reads: its upper triangle."""
+        return self._upper.mask
+
+    def _upper_data(self, A: sp.csr_matrix) -> np.ndarray:
+        return np.ascontiguousarray(A.data[self._upper.mask], dtype=self.dtype)
+
+    def _call(self, phase: int, b: np.ndarray) -> np.ndarray:
+        """One call of MKL's ``pardiso`` on the stored upper triangle, as pypardiso makes it."""
+        ps = self._ps
+        x = np.zeros_like(b)
+        error = ctypes.c_int32(0)
+        i32 = ctypes.POINTER(ctypes.c_int32)
+        one = ctypes.c_int32(1)
+        ps._mkl_pardiso(
+            ps.pt.ctypes.data_as(ctypes.POINTER(ps._pt_type[0])),
+            ctypes.byref(one),  # maxfct
+            ctypes.byref(one),  # mnum
+            ctypes.byref(ctypes.c_int32(self.mtype)),
+            ctypes.byref(ctypes.c_int32(phase)),
+            ctypes.byref(ctypes.c_int32(self._upper.shape[0])),
+            self._data.ctypes.data_as(ctypes.c_void_p),
+            self._ia.ctypes.data_as(i32),
+            self._ja.ctypes.data_as(i32),
+            ps.perm.ctypes.data_as(i32),
+            ctypes.byref(ctypes.c_int32(1 if b.ndim == 1 else b.shape[1])),
+            ps.iparm.ctypes.data_as(i32),
+            ctypes.byref(ctypes.c_int32(ps.msglvl)),
+            b.ctypes.data_as(ctypes.c_void_p),
+            x.ctypes.data_as(ctypes.c_void_p),
+            ctypes.byref(error),
+        )
+        if error.value != 0:
+            raise _pypardiso().PyPardisoError(error.value)
+        return np.ascontiguousarray(x)
+
     def factor(self, A: sp.csr_matrix) -> None:
-        self._U = self._upper(A.astype(self.dtype, copy=False))
-        self._ps.set_phase(22)
-        self._ps._call_pardiso(self._U, np.zeros((A.shape[0], 1), dtype=self.dtype))
+        self.factor_upper(self._upper_data(A))
+
+    def factor_upper(self, data: np.ndarray) -> None:
+        """Factor the matrix whose upper triangle, in the analysed pattern's order, holds ``data``.
+
+        For callers that gather those entries straight from their own storage
+        (``ElasticModel``), skipping the full matrix.
+        """
+        self._data = np.ascontiguousarray(data, dtype=self.dtype)  # kept: iterative refinement reads A
+        self._call(22, np.zeros((self._upper.shape[0], 1), dtype=self.dtype))
 
     def solve(self, b: np.ndarray) -> np.ndarray:
-        self._ps.set_phase(33)
-        b = np.asfortranarray(b, dtype=self.dtype)
-        return self._ps._call_pardiso(self._U, b)
+        return self._call(33, np.asfortranarray(b, dtype=self.dtype))
 
     def free(self) -> None:
         """Release MKL's memory for this solver (phase −1); it cannot be used afterwards."""
@@ -356,11 +436,33 @@ def make_complex_symmetric_solver(A: sp.csr_matrix, backend: str = "auto", perm:
     return SuperLUComplexSolver(A)
 
 
-def make_solver(A: sp.csr_matrix, backend: str = "auto"):
+def ordering_key(upper: _Upper, mtype: int) -> str:
+    """sha256 (hex) of what PARDISO's fill-reducing ordering depends on.
+
+    The pattern PARDISO sees (the upper triangle), the matrix type, MKL's
+    version and the thread count (METIS runs sequentially, but a cached
+    ordering is reused only where it was made).
+    """
+    from importlib.metadata import version
+
+    h = hashlib.sha256()
+    h.update(f"mkl={version('mkl')}|mtype={mtype}|iparm2=default|threads={solver_threads()}|".encode())
+    h.update(f"n={upper.shape[0]}|".encode())
+    h.update(np.ascontiguousarray(upper.indptr, dtype=np.int32).tobytes())
+    h.update(np.ascontiguousarray(upper.indices, dtype=np.int32).tobytes())
+    return h.hexdigest()
+
+
+def make_solver(A: sp.csr_matrix, backend: str = "auto", ordering_cache: Path | None = None):
     """A solver analysed for the pattern of the SPD matrix ``A`` (not yet factored).
 
     Call ``factor(A)`` with any matrix of that pattern, then ``solve(b)``
     (``b`` of shape (n,) or (n, k)).
+
+    ``ordering_cache``: a folder where PARDISO's fill-reducing ordering is kept
+    per pattern (:func:`fem.cache.load_ordering`). Given its ordering, PARDISO
+    skips METIS (about a third of the analysis) and factors to the same bits
+    as when it computed the ordering itself (tests/test_fem_speed.py).
     """
     have = available_backends()
     if backend == "auto":
@@ -371,4 +473,14 @@ def make_solver(A: sp.csr_matrix, backend: str = "auto"):
         raise SolverUnavailable(f"solver backend {backend!r} is not installed here")
     A = sp.csr_matrix(A)
     A.sort_indices()
-    return _CLASSES[backend](A)
+    if backend != "pardiso" or ordering_cache is None:
+        return _CLASSES[backend](A)
+    from .cache import load_ordering, store_ordering
+
+    upper = _Upper(A)
+    key = ordering_key(upper, PardisoSolver.mtype)
+    perm = load_ordering(ordering_cache, key, A.shape[0])
+    solver = PardisoSolver(A, perm, upper)
+    if perm is None:
+        store_ordering(ordering_cache, key, solver.perm)
+    return solver

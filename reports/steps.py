@@ -23,7 +23,7 @@ from isj.cases import THESIS_BASE_ALPHA_RAD, THESIS_BASE_BETA_RAD, THESIS_CASES
 
 from .config import ReportConfig
 from .guard import guard_step
-from .sliding import sliding_step
+from .sliding import lumped_calibration, sliding_step
 from .transmission_step import load_path_step, transmission_step
 from .uq import uq_step
 
@@ -398,13 +398,21 @@ def step_inputs(ctx: Context, sections: tuple[str, ...], step=None) -> dict:
     :func:`step_code_digest`.
     """
     d = ctx.config.to_dict()
-    cal = dataclasses.asdict(ctx.calibration)
-    cal.pop("provenance", None)  # the date of a calibration does not change its numbers
-    return {
+
+    def numbers(cal) -> dict:
+        out = dataclasses.asdict(cal)
+        out.pop("provenance", None)  # the date of a calibration does not change its numbers
+        return out
+
+    inputs = {
         "config": {s: d[s] for s in sections},
         "code": step_code_digest(ctx, step),
-        "calibration": cal,
+        "calibration": numbers(ctx.calibration),
     }
+    if "sliding" in sections:  # its lumped columns read each joint's shipped calibration: data, not code
+        cals = {j: lumped_calibration(ctx, j) for j in ctx.config.sliding.joints}
+        inputs["joint_calibrations"] = {j: numbers(c) for j, c in cals.items() if c is not None}
+    return inputs
 
 
 def step_modules(ctx: Context, step=None) -> tuple[str, ...]:

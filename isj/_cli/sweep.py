@@ -205,6 +205,9 @@ def register(sub) -> None:
         default="sweep",
         help="output folder (default ./sweep): new, empty or a previous sweep's, replaced as a whole",
     )
+    from .lumped import add_joint_option
+
+    add_joint_option(p)
     c.add_json_option(p)
     p.set_defaults(func=sweep)
 
@@ -220,6 +223,12 @@ def sweep(args) -> int:
 
     out, cal, m, fe_freq = sweep_setup(args, SWEEP_FILES)
     geometry = c.geometry(args)
+    if args.joint is not None and args.joint != cal.joint:  # the chain of the sliding joint's calibration
+        if args.calibration:
+            raise UsageError(f"--joint = {args.joint}: --calibration was fitted with the {cal.joint} joint")
+        from isj.lumped.artifact import calibration_for
+
+        cal = calibration_for(None, args.joint)
     if fe_freq.size:  # the FE model of the spot checks, before any is built
         c.check_solver(args.solver)
         c.check_model_size(geometry, args.order, args.resolution)
@@ -241,7 +250,9 @@ def sweep(args) -> int:
         from isj.fem.model import PedicleJointModel
 
         warn_fe_settings(cal, args.order, args.resolution)
-        fem_model = PedicleJointModel(geometry, args.order, args.resolution, solver=args.solver)
+        fem_model = PedicleJointModel(
+            geometry, args.order, args.resolution, solver=args.solver, joint=cal.joint
+        )
 
         def fe_response(f):
             return harmonic_outputs(fem_model, f, m, damping, args.pressure)
@@ -260,6 +271,7 @@ def sweep(args) -> int:
             )
     summary = {
         "n_freq": int(args.n),
+        "joint": cal.joint,
         "natural_freq_hz": [float(v) for v in sw.natural_freq_hz],
         "damping_ratio": [float(v) for v in sw.damping_ratio],
         "damping": damping.to_dict(),
