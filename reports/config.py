@@ -79,6 +79,18 @@ class TrendsConfig:
 
 
 @dataclass(frozen=True)
+class GeometryTrendsConfig:
+    """β against the pedicle's thickness, α against the gap's, over the geometry calibration's range.
+
+    ``n_lumped`` points per lumped curve; FE at the report's geometry and ``fe_points`` values
+    spread log-evenly over the range, its ends included (0: only the report's geometry).
+    """
+
+    n_lumped: int = 41
+    fe_points: int = 2
+
+
+@dataclass(frozen=True)
 class ConvergenceConfig:
     """The pedicle cantilever against Timoshenko (docs/model.md §2.6): orders and load directions."""
 
@@ -253,6 +265,7 @@ class ReportConfig:
     geometry: Geometry = field(default_factory=Geometry)
     mesh: MeshConfig = field(default_factory=MeshConfig)
     trends: TrendsConfig = field(default_factory=TrendsConfig)
+    geometry_trends: GeometryTrendsConfig = field(default_factory=GeometryTrendsConfig)
     convergence: ConvergenceConfig = field(default_factory=ConvergenceConfig)
     calibration: CalibrationConfig = field(default_factory=CalibrationConfig)
     sweep: SweepConfig = field(default_factory=SweepConfig)
@@ -369,6 +382,10 @@ def _check(cfg: ReportConfig) -> None:
     need(len(set(t.moduli)) == len(t.moduli), "trends.moduli", list(t.moduli), "must not repeat")
     need(5 <= t.n_lumped <= 10_000, "trends.n_lumped", t.n_lumped, "must be in [5, 10000]")
     need(0 <= t.fe_points <= 20, "trends.fe_points", t.fe_points, "must be in [0, 20]")
+    gt = cfg.geometry_trends
+    need(5 <= gt.n_lumped <= 10_000, "geometry_trends.n_lumped", gt.n_lumped, "must be in [5, 10000]")
+    need(gt.fe_points in (0, *range(2, 9)), "geometry_trends.fe_points", gt.fe_points,
+         "must be 0 or in [2, 8]")  # fmt: skip
     for o in cfg.convergence.orders:
         need(o in (1, 2), "convergence.orders", o, "each must be 1 or 2")
     for s in cfg.convergence.directions:

@@ -128,6 +128,28 @@ def trend(ax, x_pa, y_lumped, fe_x_pa, fe_y, modulus: str, ylabel: str, scale: f
     return artists
 
 
+def geometry_trend(ax, x_m, y_lumped, fe_x_m, fe_y, dimension: str, output: str, x0_m: float, exponent=None):
+    """Lumped curve and FE points of ``output`` (rad, shown in urad) against a dimension (m, shown
+    in um), log-log; with ``exponent`` the power law y ∝ x^exponent through the FE point at ``x0_m``."""
+    x, fx = np.asarray(x_m) * 1e6, np.asarray(fe_x_m) * 1e6
+    fy = np.asarray(fe_y) * 1e6
+    lum = np.asarray(y_lumped) * 1e6
+    artists = ax.plot(x, lum, "-", color="#fd8d3c", label="lumped (geometry calibration)")
+    artists += ax.plot(fx, fy, "o", mfc="none", color="#3182bd", label="FE")
+    if exponent is not None:
+        y0 = fy[np.argmin(np.abs(fx - x0_m * 1e6))]
+        label = f"{output.split('_')[0]} ∝ {dimension.split('_m')[0]}^{exponent:g} (Euler-Bernoulli bending)"
+        artists += ax.plot(x, y0 * (x / (x0_m * 1e6)) ** exponent, "--", color="0.4", lw=0.8, label=label)
+    artists.append(ax.axvline(x0_m * 1e6, color="k", lw=0.6, ls=":"))
+    _log_axes(ax, "xy")
+    ax.set_xticks(fx, [f"{v:.3g}" for v in fx])  # a short log axis: the FE points' values
+    ax.set_xlabel(f"{dimension} (um)", fontsize=7)
+    ax.set_ylabel(f"{output.split('_')[0]} (urad)", fontsize=7)
+    ax.tick_params(labelsize=6, which="both")
+    ax.grid(True, which="both", alpha=0.3)
+    return artists
+
+
 def _min_span(ax, values: np.ndarray, rel: float) -> None:
     """Widen the y axis to at least ``rel`` × the mean, so that tiny changes do not look large."""
     lo, hi = float(values.min()), float(values.max())

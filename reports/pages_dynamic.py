@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import figures
+from .geometry import draw_geometry_domain
 from .layout import pct, ratio, text_block, urad, wrap
 
 
@@ -56,7 +57,9 @@ def convergence_page(fig, conv: dict):
     text_block(fig, 0.08, 0.10 + 0.012 * max(0, 30 - len(lines)), wrap(note, 100), fontsize=7.5)
 
 
-def calibration_page(fig, cal: dict):
+def calibration_page(fig, cal: dict, design_geometry: dict | None = None):
+    """The calibration's check and record; with ``cal["geometry"]``, the geometry calibration's
+    domain (``design_geometry``: the report's dimensions, m, marked against it)."""
     pts = cal["points"]
     if pts:
         for i, (key, lab) in enumerate((("alpha_rad", "alpha (urad)"), ("beta_rad", "beta (urad)"))):
@@ -112,12 +115,17 @@ def calibration_page(fig, cal: dict):
             f"beta {100 * v['max_beta']:.2f} %, "
             f"beta/alpha {100 * v['max_ratio']:.2f} %"
         )
-    lines += ["", f"{'calibrated domain (Pa)':40}fitted factors (dimensionless)"]
+    head = text_block(fig, 0.07, 0.36, wrap("\n".join(lines), 118), fontsize=6.8)
+    # the tables below the head, whose height depends on its wrapped lines
+    top = head.get_window_extent(fig.canvas.get_renderer()).transformed(fig.transFigure.inverted()).y0 - 0.012
+    table = [f"{'calibrated domain (Pa)':40}fitted factors (dimensionless)"]
     dom = [f"  {k:13} {lo:9.3g} .. {hi:9.3g}" for k, (lo, hi) in cal["domain"].items()]
     fac = [f"  {k:18} {val:.4g}" for k, val in cal["factors"].items()]
     for i in range(max(len(dom), len(fac))):
-        lines.append(f"{dom[i] if i < len(dom) else '':40}{fac[i] if i < len(fac) else ''}")
-    text_block(fig, 0.07, 0.36, wrap("\n".join(lines), 118), fontsize=6.8)
+        table.append(f"{dom[i] if i < len(dom) else '':40}{fac[i] if i < len(fac) else ''}")
+    text_block(fig, 0.07, top, "\n".join(table), fontsize=6.8)
+    if cal.get("geometry"):  # beside the factors
+        draw_geometry_domain(fig, cal["geometry"], design_geometry or {}, top)
 
 
 def sweep_page(fig, sweep: dict, arrays: dict):

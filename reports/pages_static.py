@@ -7,6 +7,7 @@ import numpy as np
 from isj.design import REGIONS
 
 from . import figures
+from .geometry import geometry_trend_lines, geometry_trend_panels
 from .layout import pct, ratio, text_block, urad, wrap
 
 
@@ -145,14 +146,16 @@ def cases_page(fig, cases: dict, model: dict):
             ax.legend(fontsize=7)
 
 
-def trends_page(fig, trends: dict, arrays: dict, design: dict, moduli: tuple[str, ...]):
+def trends_page(fig, trends: dict, arrays: dict, design: dict, moduli: tuple[str, ...], geometry=None):
+    """The moduli's trends; with ``geometry`` ((result, arrays) of the geometry_trends step) a last
+    row of β against the pedicle's thickness and α against the gap's (:mod:`reports.geometry`)."""
     names = [m for m in moduli if m in trends]  # config order (the JSON's keys are sorted)
     outs = (
         ("alpha_rad", "alpha (urad)", 1e6),
         ("beta_rad", "beta (urad)", 1e6),
         ("ratio", "beta/alpha", 1.0),
     )
-    top, bottom = 0.90, 0.27
+    top, bottom = 0.90, (0.47 if geometry else 0.27)
     h = (top - bottom) / max(len(names), 1)
     for i, name in enumerate(names):
         x = arrays[f"{name}_x"]
@@ -175,12 +178,17 @@ def trends_page(fig, trends: dict, arrays: dict, design: dict, moduli: tuple[str
                 f"  {name:13} {p['value_pa']:9.3g} Pa: alpha {urad(p['fe']['alpha_rad'])} urad ({pct(ea)}), "
                 f"beta {urad(p['fe']['beta_rad'])} urad ({pct(eb)})"
             )
-    text_block(fig, 0.07, 0.215, "\n".join(lines), fontsize=6.5)
+    if geometry:
+        geometry_trend_panels(fig, *geometry, y0=0.29, height=0.14)
+        lines += geometry_trend_lines(geometry[0])
+    text_block(fig, 0.07, 0.235 if geometry else 0.215, "\n".join(lines), fontsize=6.5)
     fig.text(
         0.07, 0.925, wrap(
             "One modulus varied over the calibrated domain, the others at the base design (dotted line). "
             "Curves: lumped model; circles: FE. Every y axis spans at least 10 % of its mean, so a flat "
-            "curve means the output hardly depends on that modulus.", 120
+            "curve means the output hardly depends on that modulus. Last row: one dimension varied over "
+            "the geometry calibration's range, log-log; dashed: the cubic law of the pedicle's bending "
+            "through the FE point at the report's geometry.", 120
         ), fontsize=7.5, va="top",
     )  # fmt: skip
 
@@ -219,5 +227,3 @@ def energy_page(fig, cases: dict):
         + "."
     )
     text_block(fig, 0.08, 0.30, wrap(note, 100), fontsize=7.5)
-
-

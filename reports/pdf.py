@@ -9,6 +9,8 @@ the PDF's text against the JSON.
 
 from __future__ import annotations
 
+import dataclasses
+
 from .guard import guard_page
 from .layout import A4, MONO, new_page, pct, ratio, urad  # noqa: F401 - the tests use the formats
 from .pages_dynamic import calibration_page, convergence_page, ear_page, sweep_page
@@ -43,21 +45,23 @@ def build_pages(config, results: dict, arrays: dict, provenance: dict):
         f"isj {provenance['versions'].get('isj', '?')} ({provenance.get('git_revision') or 'no git'}), "
         f"{provenance['date']}; data behind every figure: data/*.json, data/*.csv"
     )
+    geo = (results["geometry_trends"], arrays["geometry_trends"])  # the trends page's last row
     builders = (
         lambda f: title_page(f, config, provenance, results["model"]),
         lambda f: model_page(f, results["model"], arrays["model"]),
         lambda f: cases_page(f, results["cases"], results["model"]),
         lambda f: trends_page(
-            f, results["trends"], arrays["trends"], config.design.moduli(), config.trends.moduli
+            f, results["trends"], arrays["trends"], config.design.moduli(), config.trends.moduli, geometry=geo
         ),
         lambda f: energy_page(f, results["cases"]),
         lambda f: convergence_page(f, results["convergence"]),
-        lambda f: calibration_page(f, results["calibration"]),
+        lambda f: calibration_page(f, results["calibration"], dataclasses.asdict(config.geometry)),
         lambda f: sweep_page(f, results["sweep"], arrays["sweep"]),
         lambda f: ear_page(f, results["ear"], arrays["ear"], results["cases"]),
         lambda f: hv_page(f, results["transmission"], arrays["transmission"]),
-        lambda f: delta_page(f, results["transmission"], arrays["transmission"], results["load_path"],
-                             arrays["load_path"]),
+        lambda f: delta_page(
+            f, results["transmission"], arrays["transmission"], results["load_path"], arrays["load_path"]
+        ),
         lambda f: sliding_page(f, results["sliding"]),
         lambda f: uq_page(f, results["uq"], results["uq"]["histograms"]),
         lambda f: guard_page(f, results["guard"], arrays["guard"]),

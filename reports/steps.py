@@ -22,8 +22,9 @@ from isj.calibration.checks import STATIC_KEYS, static_row
 from isj.cases import THESIS_BASE_ALPHA_RAD, THESIS_BASE_BETA_RAD, THESIS_CASES
 
 from .config import ReportConfig
+from .geometry import geometry_calibration_summary, geometry_trends_step
 from .guard import guard_step
-from .sliding import lumped_calibration, sliding_step
+from .sliding import sliding_step
 from .transmission_step import load_path_step, transmission_step
 from .uq import uq_step
 
@@ -233,6 +234,7 @@ def calibration_step(ctx: Context) -> tuple[dict, dict]:
         "provenance": cal.provenance,
         "check": check,
         "points": points,
+        "geometry": geometry_calibration_summary(),
     }, {}
 
 
@@ -388,6 +390,8 @@ STEPS = (
     ("sliding", sliding_step, ("design", "geometry", "mesh", "sliding")),
     ("guard", guard_step, ("design", "geometry", "mesh", "guard")),
     ("uq", uq_step, ("design", "geometry", "uq")),
+    # last: its FE geometries may push the report geometry's model out of fem.batch's memo
+    ("geometry_trends", geometry_trends_step, ("design", "geometry", "mesh", "geometry_trends")),
 )
 
 
@@ -409,9 +413,11 @@ def step_inputs(ctx: Context, sections: tuple[str, ...], step=None) -> dict:
         "code": step_code_digest(ctx, step),
         "calibration": numbers(ctx.calibration),
     }
-    if "sliding" in sections:  # its lumped columns read each joint's shipped calibration: data, not code
-        cals = {j: lumped_calibration(ctx, j) for j in ctx.config.sliding.joints}
-        inputs["joint_calibrations"] = {j: numbers(c) for j, c in cals.items() if c is not None}
+    if "geometry_trends" in sections or step in (calibration_step, None):
+        # the shipped geometry calibration (its domain, errors; the trends' lumped curves): data too
+        from isj.lumped.artifact import geometry_calibration
+
+        inputs["geometry_calibration"] = numbers(geometry_calibration())
     return inputs
 
 

@@ -53,7 +53,7 @@ def test_each_report_step_depends_on_the_lumped_model_exactly_when_it_uses_it():
 
     cfg = ReportConfig()
     ctx = Context(cfg, load_calibration(cfg), Path("unused"))
-    uses_lumped = {"cases", "trends", "calibration", "sweep", "load_path", "guard", "uq"}
+    uses_lumped = {"cases", "trends", "calibration", "sweep", "load_path", "guard", "uq", "geometry_trends"}
     for name, fn, _ in STEPS:
         mods = step_modules(ctx, fn)
         lumped = {m for m in mods if m.startswith("isj.lumped")}

@@ -27,7 +27,7 @@ def test_interrupted_run_writes_no_pdf_and_resumes_from_the_finished_steps(repor
     assert not report["pdf_after_interrupt"]
     # every step but the interrupted one came from the cache
     steps = ["model", "cases", "trends", "convergence", "calibration", "sweep", "ear"]
-    steps += ["transmission", "load_path", "sliding", "guard", "uq"]
+    steps += ["transmission", "load_path", "sliding", "guard", "uq", "geometry_trends"]
     assert report["first"]["cached"] == steps[: steps.index("sweep")]  # the ear never ran before
     assert report["second"]["cached"] == steps
 
@@ -126,10 +126,10 @@ def test_every_figure_has_data(report):
             finite += [p.get_window_extent().width * p.get_window_extent().height > 0 for p in ax.patches]
             assert any(finite), f"empty axes on page {title!r}: {ax.get_title() or ax.get_ylabel()}"
         plt.close(fig)
-    # model (2), cases (2), trends (2 x 3), energy (1), convergence (1), calibration (6), sweep (2), ear (1),
-    # H_V (3), dH_V (3: one case, so no pedicle-or-joint ratio panel), sliding (1), uncertainty (3 + 3),
-    # guard (one map per pair of the five moduli: 10)
-    assert n_axes == 2 + 2 + 6 + 1 + 1 + 6 + 2 + 1 + 3 + 3 + 1 + 6 + 10
+    # model (2), cases (2), trends (2 x 3 + 2 geometry), energy (1), convergence (1), calibration (6),
+    # sweep (2), ear (1), H_V (3), dH_V (3: one case, so no pedicle-or-joint ratio panel), sliding (1),
+    # uncertainty (3 + 3), guard (one map per pair of the five moduli: 10)
+    assert n_axes == 2 + 2 + 6 + 2 + 1 + 1 + 6 + 2 + 1 + 3 + 3 + 1 + 6 + 10
 
 
 def test_data_files_and_resolved_config(report):
@@ -215,8 +215,21 @@ def test_toml_round_trip_of_every_default():
 
     cfg = ReportConfig()
     data = tomllib.loads(cfg.to_toml())
-    assert set(data) == {"design", "geometry", "mesh", "trends", "convergence", "calibration", "sweep", "ear",
-                         "transmission", "sliding", "guard", "uq"}
+    assert set(data) == {
+        "design",
+        "geometry",
+        "mesh",
+        "trends",
+        "convergence",
+        "calibration",
+        "sweep",
+        "ear",
+        "transmission",
+        "sliding",
+        "guard",
+        "uq",
+        "geometry_trends",
+    }
     assert math.isclose(data["design"]["pedicle_e_pa"], cfg.design.pedicle_e_pa)
 
 
@@ -320,3 +333,54 @@ def test_guard_page_checks_the_lumped_model_over_the_domain(report):
     assert abs(c["fe_alpha_rad"] - c["surrogate_alpha_rad"]) <= c["surrogate_alpha_bound_rad"]
     texts = _pages_text(report["dir"] / "report.pdf")
     assert "corners: 32 designs" in texts[13]
+
+
+def test_geometry_trends_follow_the_pedicle_bending_law(report):
+    """β against the pedicle's thickness b_x, α against the gap's, FE on the report's mesh.
+
+    β is the pedicle's rotation: a sum of compliances, Euler-Bernoulli bending ∝ b_x^-3 (second
+    moment b_y b_x³/12) and shear ∝ b_x^-1 (area b_x b_y), so its log-log slope is a weighted
+    mean of -3 and -1 and lies between them; a slope steeper than -3 is impossible, one above -1
+    would mean β is not the pedicle's. Measured here: about -2.5 on either side of 55 um.
+    """
+    g = json.loads((report["dir"] / "data" / "geometry_trends.json").read_text())
+    px = g["trends"]["pedicle_x_m"]
+    assert px["value_m"] == report["config"].geometry.pedicle_x_m
+    assert [q["value_m"] for q in px["fe_points"]] == sorted(q["value_m"] for q in px["fe_points"])
+    assert len(px["fe_points"]) == 3  # the report's value and the domain's two ends
+    for slope in (px["fe_slope_below"], px["fe_slope_above"]):
+        assert -3.0 < slope < -1.0
+    # α: the gap is in series in the joint's load path, so a thicker gap is a more compliant joint
+    gap = g["trends"]["gap_thickness_m"]
+    alpha = [q["fe"]["alpha_rad"] for q in gap["fe_points"]]
+    assert all(b > a for a, b in zip(alpha, alpha[1:], strict=False))
+    assert gap["fe_slope_below"] > 0 and gap["fe_slope_above"] > 0
+    # the report's geometry is the cases step's own FE solve, to the last bit of the JSON
+    here = next(q for q in px["fe_points"] if q["value_m"] == px["value_m"])
+    base = json.loads((report["dir"] / "data" / "cases.json").read_text())["rows"][0]["fe"]
+    assert here["fe"]["beta_rad"] == base["beta_rad"] and here["fe"]["alpha_rad"] == base["alpha_rad"]
+    # the lumped curves come from the geometry calibration: within its held-out error plus this
+    # coarse mesh (cases: under 30 %) of FE at every point
+    for tr in g["trends"].values():
+        for q in tr["fe_points"]:
+            for k in ("alpha_rad", "beta_rad"):
+                assert abs(q["lumped"][k] / q["fe"][k] - 1) < 0.3
+    texts = _pages_text(report["dir"] / "report.pdf")
+    assert "pedicle_x_m (um)" in texts[3] and "gap_thickness_m (um)" in texts[3]
+    assert f"FE slope {px['fe_slope_below']:+.2f} / {px['fe_slope_above']:+.2f}" in texts[3]
+    assert (report["dir"] / "data" / "geometry_trends.csv").read_text().count("pedicle_x_m") == 3
+
+
+def test_calibration_page_shows_the_geometry_domain(report):
+    """The geometry calibration's box (um) and held-out errors, as the shipped artifact records them."""
+    from isj.calibration.doe import GEOMETRY_DOMAIN_M
+    from isj.lumped.artifact import geometry_calibration
+
+    cal = json.loads((report["dir"] / "data" / "calibration.json").read_text())["geometry"]
+    shipped = geometry_calibration()
+    assert cal["domain_m"] == {k: list(v) for k, v in GEOMETRY_DOMAIN_M.items()}
+    assert cal["validation"] == shipped.validation and cal["validation"]["n"] == 64
+    text = _pages_text(report["dir"] / "report.pdf")[6]
+    assert f"held out: max |error| alpha {100 * cal['validation']['max_alpha']:.1f} %" in text
+    for k, (lo, hi) in GEOMETRY_DOMAIN_M.items():
+        assert k in text and f"{lo * 1e6:7.2f}".strip() in text and f"{hi * 1e6:7.2f}".strip() in text
