@@ -24,7 +24,7 @@ from isj.cases import THESIS_BASE_ALPHA_RAD, THESIS_BASE_BETA_RAD, THESIS_CASES
 from .config import ReportConfig
 from .geometry import geometry_calibration_summary, geometry_trends_step
 from .guard import guard_step
-from .sliding import sliding_step
+from .sliding import lumped_calibration, sliding_step
 from .transmission_step import load_path_step, transmission_step
 from .uq import uq_step
 
@@ -413,6 +413,9 @@ def step_inputs(ctx: Context, sections: tuple[str, ...], step=None) -> dict:
         "code": step_code_digest(ctx, step),
         "calibration": numbers(ctx.calibration),
     }
+    if "sliding" in sections:  # its lumped columns read each joint's shipped calibration: data, not code
+        cals = {j: lumped_calibration(ctx, j) for j in ctx.config.sliding.joints}
+        inputs["joint_calibrations"] = {j: numbers(c) for j, c in cals.items() if c is not None}
     if "geometry_trends" in sections or step in (calibration_step, None):
         # the shipped geometry calibration (its domain, errors; the trends' lumped curves): data too
         from isj.lumped.artifact import geometry_calibration
