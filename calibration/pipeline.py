@@ -223,7 +223,12 @@ def geometry_calibration_from_records(
 
 
 def frequency_errors(
-    factors, shear_factor: float, designs: list[dict], fe_freq_hz, geometry: Geometry | None = None
+    factors,
+    shear_factor: float,
+    designs: list[dict],
+    fe_freq_hz,
+    geometry: Geometry | None = None,
+    joint: str = "bonded",
 ) -> dict:
     """Relative errors of the chain model's first two natural frequencies against FE in-plane ones.
 
@@ -234,6 +239,7 @@ def frequency_errors(
     designs : moduli (Pa) per design
     fe_freq_hz : (n_design, 2) FE first and second in-plane natural frequencies (Hz)
     geometry : dimensions (m)
+    joint : "bonded" or "sliding" (the chain's shear spring, :func:`isj.lumped.dynamics.chain_model`)
 
     Returns
     -------
@@ -243,7 +249,7 @@ def frequency_errors(
 
     moduli = {k: np.array([d[k] for d in designs]) for k in designs[0]}
     fe = np.asarray(fe_freq_hz, dtype=float)
-    f, _ = chain_model(factors, shear_factor, geometry, rayleigh_b_s=0.0, **moduli).poles()
+    f, _ = chain_model(factors, shear_factor, geometry, rayleigh_b_s=0.0, joint=joint, **moduli).poles()
     out = {"n": len(designs)}
     for i in range(min(2, fe.shape[1])):
         e = f[:, i] / fe[:, i] - 1
@@ -251,7 +257,13 @@ def frequency_errors(
     return out
 
 
-def fit_shear(factors, designs: list[dict], fe_freq_hz: np.ndarray, geometry: Geometry | None = None) -> dict:
+def fit_shear(
+    factors,
+    designs: list[dict],
+    fe_freq_hz: np.ndarray,
+    geometry: Geometry | None = None,
+    joint: str = "bonded",
+) -> dict:
     """Fit the chain model's joint shear factor to FE second in-plane natural frequencies (Hz).
 
     The static factors fix every other spring (and so the first frequency, within a few per
@@ -265,6 +277,7 @@ def fit_shear(factors, designs: list[dict], fe_freq_hz: np.ndarray, geometry: Ge
     designs : moduli (Pa) per design
     fe_freq_hz : (n_design, 2) FE first and second in-plane natural frequencies (Hz)
     geometry : dimensions (m)
+    joint : "bonded" or "sliding" (with sliding, the gap carries no shear: docs/lumped.md §3.14)
 
     Returns
     -------
@@ -279,14 +292,16 @@ def fit_shear(factors, designs: list[dict], fe_freq_hz: np.ndarray, geometry: Ge
         raise ValueError("fe_freq_hz: need the first two in-plane frequencies per design, shape (n, 2)")
 
     def cost(log_f):
-        f, _ = chain_model(factors, float(np.exp(log_f)), geometry, rayleigh_b_s=0.0, **moduli).poles()
+        f, _ = chain_model(
+            factors, float(np.exp(log_f)), geometry, rayleigh_b_s=0.0, joint=joint, **moduli
+        ).poles()
         return float(np.sum((f[:, 1] / fe[:, 1] - 1) ** 2))
 
     res = minimize_scalar(
         cost, bounds=(np.log(0.01), np.log(100.0)), method="bounded", options={"xatol": 1e-8}
     )
     shear = float(np.exp(res.x))
-    return {"shear_factor": shear} | frequency_errors(factors, shear, designs, fe, geometry)
+    return {"shear_factor": shear} | frequency_errors(factors, shear, designs, fe, geometry, joint)
 
 
 def calibrate_dynamics(
@@ -319,10 +334,10 @@ def calibrate_dynamics(
     recs = run_designs(train + held, evaluate_modes, msettings, cache_dir, progress=progress)
     fe = np.array([r["result"]["in_plane_freq_hz"][:2] for r in recs])
     geometry = Geometry(**settings["geometry"]) if "geometry" in settings else Geometry()
-    fit = fit_shear(cal.factor_array(), train, fe[: len(train)], geometry)
+    fit = fit_shear(cal.factor_array(), train, fe[: len(train)], geometry, cal.joint)
     dyn = {"shear_factor": fit["shear_factor"], "training": fit, "validation": {}}
     if held:
         dyn["validation"] = frequency_errors(
-            cal.factor_array(), fit["shear_factor"], held, fe[len(train) :], geometry
+            cal.factor_array(), fit["shear_factor"], held, fe[len(train) :], geometry, cal.joint
         )
     return dataclasses.replace(cal, dynamics=dyn)

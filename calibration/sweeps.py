@@ -193,6 +193,7 @@ def chain_sweep(
         geometry,
         materials,
         damping=damping,
+        joint=calibration.joint,
         **region_moduli(materials),
     )
     poles_hz, zeta = model.poles()

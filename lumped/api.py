@@ -284,6 +284,7 @@ class LumpedModel:
             self.shear_factor,
             self.geometry,
             mat,
+            joint=self.joint,
             rayleigh_a_per_s=rayleigh_a_per_s,
             rayleigh_b_s=rayleigh_b_s,
             loss_factor=loss_factor,

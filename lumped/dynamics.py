@@ -21,7 +21,9 @@ coordinates (:data:`COORDINATES`), from the clamped face of the stapes head up:
   k_s = f_shear (G_gap j_x j_y / t + G_cap 2 (j_x + 2 t_c) t_c / (t + 2 reach)): the
   gap as a bonded layer and the capsule's two walls parallel to x sheared over their
   whole span. f_shear is calibrated against FE second in-plane natural frequencies
-  (:func:`calibration.pipeline.fit_shear`; 0.84 in the shipped calibration).
+  (:func:`calibration.pipeline.fit_shear`; 0.84 in the shipped calibration). With the
+  sliding joint (``joint="sliding"``) the gap's face glides: it carries no shear and its
+  term drops, k_s = f_shear G_cap 2 (j_x + 2 t_c) t_c / (t + 2 reach) (docs/lumped.md §3.14).
 
 Why these two additions to a joint-and-pedicle chain: on the shipped calibration's 24
 FE modal designs, a chain clamped at z_j, with the capsule walls sheared over their free
@@ -145,6 +147,7 @@ def chain_stiffness(
     shear_factor: float = DEFAULT_SHEAR_FACTOR,
     geometry: Geometry | None = None,
     materials: Materials | None = None,
+    joint: str = "bonded",
     **moduli,
 ) -> ChainStiffness:
     """The chain's springs from the calibrated static factors, for arrays of moduli (Pa).
@@ -159,6 +162,7 @@ def chain_stiffness(
     factors : calibrated static factors (``lumped.model.FACTOR_NAMES`` order)
     shear_factor : joint shear factor f_shear (dimensionless, > 0)
     geometry, materials : dimensions (m); Poisson's ratio from ``materials``
+    joint : "bonded" (the gap and the capsule in shear) or "sliding" (the capsule only)
     **moduli : Young's moduli (Pa), floats or broadcastable arrays
 
     Returns
@@ -168,10 +172,12 @@ def chain_stiffness(
     if not np.isfinite(shear_factor) or shear_factor <= 0:
         raise InvalidParameter(f"shear_factor = {shear_factor!r}: must be a finite number > 0")
     g = geometry or Geometry()
-    return _springs(factors, shear_factor, g, (materials or Materials()).nu, moduli_arrays(**moduli))
+    return _springs(factors, shear_factor, g, (materials or Materials()).nu, moduli_arrays(**moduli), joint)
 
 
-def _springs(factors, shear_factor: float, g: Geometry, nu: float, E: dict) -> ChainStiffness:
+def _springs(
+    factors, shear_factor: float, g: Geometry, nu: float, E: dict, joint: str = "bonded"
+) -> ChainStiffness:
     """:func:`chain_stiffness` on checked moduli arrays ``E``; plain arithmetic, so complex moduli
     (the complex step of :func:`isj.lumped.damping.region_stiffness`) give complex springs."""
     lever = Lever.from_geometry(g)
@@ -187,11 +193,10 @@ def _springs(factors, shear_factor: float, g: Geometry, nu: float, E: dict) -> C
     foundation = 1 + f["root_foundation"] * (1e3 * E["gap_e_pa"] / E["plate_e_pa"]) ** 0.25
     jx, jy, t, tc = g.joint_x_m, g.joint_y_m, g.gap_thickness_m, g.capsule_thickness_m
     span = t + 2 * g.capsule_reach_m
-    k_shear = (
-        shear_factor
-        / (2 * (1 + nu))
-        * (E["gap_e_pa"] * jx * jy / t + E["capsule_e_pa"] * 2 * (jx + 2 * tc) * tc / span)
-    )
+    if joint not in ("bonded", "sliding"):
+        raise InvalidParameter(f"joint = {joint!r}: must be bonded or sliding")
+    gap = E["gap_e_pa"] * jx * jy / t if joint == "bonded" else 0.0  # a sliding face carries no shear
+    k_shear = shear_factor / (2 * (1 + nu)) * (gap + E["capsule_e_pa"] * 2 * (jx + 2 * tc) * tc / span)
     return ChainStiffness(
         stapes=_timoshenko(E["stapes_e_pa"], 1.0, jx, jy, g.z_gap, nu),
         k_joint=lever.force_per_pa * (z["load"] - z["j"]) / a_pa,
@@ -366,6 +371,7 @@ def chain_model(
     loss_factor=None,
     *,
     damping: Damping | str | None = None,
+    joint: str = "bonded",
     **moduli,
 ) -> SecondOrderModel:
     """The eight-coordinate chain (module docstring) for one or many designs.
@@ -380,6 +386,7 @@ def chain_model(
         per region, docs/dynamics.md §4.3)
     rayleigh_a_per_s, rayleigh_b_s, loss_factor : changes to ``damping`` (1/s, s, dimensionless):
         a number for every region or a mapping region → value; None leaves it
+    joint : "bonded" or "sliding" (the joint's shear spring: gap and capsule, or capsule only)
     **moduli : Young's moduli (Pa), floats or broadcastable arrays (``lumped.model.MODULI``);
         floats only (or none): one design, no design axis
 
@@ -395,7 +402,7 @@ def chain_model(
     )
     nu = (materials or Materials()).nu
     E = moduli_arrays(**moduli)
-    K = _chain_stiffness_matrix(_springs(factors, shear_factor, g, nu, E))
+    K = _chain_stiffness_matrix(_springs(factors, shear_factor, g, nu, E, joint))
     nd = K.shape[0]
     M = np.broadcast_to(chain_mass(g, materials), (nd, 8, 8)).copy()
     uniform = d.uniform_values(REGIONS)
@@ -404,7 +411,7 @@ def chain_model(
         Ed, K_loss = a * M + b * K, eta * K
     else:
         parts = region_stiffness(
-            lambda Ec: _chain_stiffness_matrix(_springs(factors, shear_factor, g, nu, Ec)), E
+            lambda Ec: _chain_stiffness_matrix(_springs(factors, shear_factor, g, nu, Ec, joint)), E
         )
         masses = {
             r: np.broadcast_to(m, (nd, 8, 8)) for r, m in chain_mass(g, materials, per_region=True).items()
