@@ -4,17 +4,20 @@ Starting from a calibration and its FE training records, each round
 
 1. guards the lumped model with the certified surrogate of the FE model over the 2^d corners of
    the calibrated domain and a dense Sobol sample of it (:func:`isj.calibration.guard.run_guard`);
-2. stops when the largest certified error is within the tolerance, or when it has not fallen
-   by ``min_gain`` (relative) over ``patience`` rounds, or after ``max_rounds``;
+2. stops when the largest certified error is within the tolerance, or when over ``patience``
+   rounds it has not fallen by ``min_gain`` (relative) and no fewer designs fail, or after
+   ``max_rounds``;
 3. else takes the ``per_round`` designs of largest certified error, runs FE there
    (``confirm``: true FE values, cached by the runner), checks that FE lies within the
    surrogate's bound, adds them to the training records and refits the factors
    (:func:`isj.calibration.fit.fit_factors`, started from the current ones).
 
-The round with the smallest worst certified error wins (a refit may move the worst design
-elsewhere). The surrogate and the FE runs come from the caller (``isj calibrate --adaptive``
-passes :func:`isj.fem.rom.reduced_model`'s surrogate and :func:`isj.fem.batch.evaluate_design`
-through the runner): this package never imports isj.fem, so it runs without gmsh. Any object
+The round with the fewest designs over the tolerance wins, ties by the smallest worst certified
+error (a refit may move the worst design elsewhere; once the tolerance is out of reach, the
+region where it holds, :mod:`isj.calibration.region`, is what a user gets). The surrogate and
+the FE runs come from the caller (``isj calibrate --adaptive`` passes
+:func:`isj.fem.rom.reduced_model`'s surrogate and :func:`isj.fem.batch.evaluate_design` through
+the runner): this package never imports isj.fem, so it runs without gmsh. Any object
 with the surrogate's ``space.bounds``, ``space.incus_e_pa``, ``evaluate(E, pressure_pa)`` and
 ``sizes()`` serves as the oracle (the tests use the lumped model itself with known factors).
 """
@@ -62,7 +65,8 @@ class AdaptiveResult:
     added : per design added up to the best round ``{"round", "design", "confirmed", "certified_error"}``
     history : per round ``{"round", "n_train", "max_certified_error", "corners", "dense",
         "n_fail", "worst"}`` (errors relative; ``worst`` the design of largest certified error)
-    best_round : index of the best round in ``history``
+    best_round : index of the best round in ``history``: the fewest failing designs, then the
+        smallest worst certified error
     reached : whether the best round's worst certified error is within the tolerance
     stop : why the loop ended: ``reached``, ``no progress`` or ``max rounds``
     iterations : IPOPT's iterations of the best round's fit (the starting calibration's for round 0)
@@ -210,9 +214,14 @@ def adaptive_fit(
             stop = "reached"
             break
         if k >= patience:
-            recent = min(h["max_certified_error"] for h in history[k - patience + 1 :])
-            if recent > history[k - patience]["max_certified_error"] * (1 - min_gain):
-                stop = "no progress"  # ``patience`` rounds without a gain of min_gain
+            # progress: the worst error fell by min_gain, or fewer designs fail, within ``patience`` rounds
+            before, recent = history[k - patience], history[k - patience + 1 :]
+            gain = min(h["max_certified_error"] for h in recent) <= before["max_certified_error"] * (
+                1 - min_gain
+            )
+            fewer = min(h["n_fail"] for h in recent) < before["n_fail"]
+            if not (gain or fewer):
+                stop = "no progress"
                 break
         if k == max_rounds:
             break
@@ -239,7 +248,9 @@ def adaptive_fit(
         records += list(new)
         fit = _refit(records, geometry, factors, norm)
         factors, iterations = fit.factors, fit.iterations
-    b = int(np.argmin([h["max_certified_error"] for h in history]))
+    # the best round: the fewest designs over the tolerance, then the smallest worst error (once the
+    # tolerance is out of reach, the region where it holds is what a user gets)
+    b = min(range(len(history)), key=lambda j: (history[j]["n_fail"], history[j]["max_certified_error"], j))
     n_train = history[b]["n_train"]
     return AdaptiveResult(
         factors=fits[b][0],

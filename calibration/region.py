@@ -1,7 +1,7 @@
 """Where the lumped model holds its tolerance: a map of the calibrated domain stored in the artifact.
 
 The calibrated domain's log-moduli box (its ranged moduli, in :data:`isj.lumped.model.MODULI`
-order) is cut into ``cells`` equal slices per modulus (8: 8^5 = 32,768 cells for the shipped
+order) is cut into ``cells`` equal slices per modulus (12: 12^5 = 248,832 cells for the shipped
 domain). The certified surrogate guards the lumped model on a dense scrambled Sobol sample of
 the box and on its corners (:func:`isj.calibration.guard.guard_set`); a cell is *outside* the
 region when a design in it, or in a cell that shares a face or corner with it, has a certified
@@ -27,10 +27,10 @@ from isj.design import DEFAULT_PRESSURE_PA, Geometry
 from .guard import DEFAULT_TOLERANCE, _base, corner_designs, dense_designs, guard_set
 
 #: Slices per ranged modulus.
-DEFAULT_CELLS = 8
+DEFAULT_CELLS = 12
 
-#: Dense designs the map is built from (2^20: 32 per cell on average for 5 moduli).
-DEFAULT_MAP_SAMPLE = 2**20
+#: Dense designs the map is built from (2^18: about one per cell; the neighbours cover the rest).
+DEFAULT_MAP_SAMPLE = 2**18
 
 #: Margin below the tolerance (absolute, relative error) at which a sampled design marks its cell.
 DEFAULT_MARGIN = 0.002

@@ -64,17 +64,18 @@ class LumpedOracle:
 
 
 def _truth():
-    """Known factors: the shipped ones, with root_plate 0 (one geometry cannot see it)."""
+    """Known factors: the shipped ones, root_plate 0 (one geometry cannot see it), pedicle_face 0.17."""
     f = default_calibration().factor_array().copy()
     f[FACTOR_NAMES.index("root_plate")] = 0.0
+    f[FACTOR_NAMES.index("pedicle_face")] = 0.17
     return f
 
 
-def _narrow_start(truth, oracle, n=4):
+def _narrow_start(truth, oracle, n=5):
     """Wrong factors, and ``n`` training designs from a small corner of the domain (soft joints).
 
-    Four designs (eight residuals) cannot fix twelve factors: fitted to them alone, the model
-    is 18 % off elsewhere (checked below), so the loop has to add designs to recover them.
+    Five designs (ten residuals) cannot fix thirteen factors: fitted to them alone, the model
+    is more than 5 % off elsewhere (checked below), so the loop has to add designs to recover them.
     """
     cal = default_calibration()
     narrow = DesignSpace.from_dict(cal.domain).replace(
@@ -96,15 +97,17 @@ def test_adaptive_loop_recovers_known_factors():
         asked.append(designs)
         return oracle.records(designs)
 
-    alone = adaptive_fit(start, records, oracle, confirm, n_dense=256, max_rounds=0, refit_first=True)
+    # least squares (norm 2): the oracle lies in the model's class, so the fit can be exact; the
+    # L^8 norm's weights vanish with the residuals and stall far above 1e-4
+    alone = adaptive_fit(start, records, oracle, confirm, n_dense=256, max_rounds=0, refit_first=True, norm=2)
     assert alone.best["max_certified_error"] > 0.05 and not asked  # the start's designs are not enough
     res = adaptive_fit(
         start, records, oracle, confirm, tolerance=1e-4, n_dense=256, per_round=4, max_rounds=8,
-        patience=8,
+        patience=8, norm=2,
     )  # fmt: skip
     first, best = res.history[0], res.best
     assert first["max_certified_error"] > 0.1  # the wrong start is far off at the corners
-    assert len(res.history) >= 3  # more than one round of designs was needed
+    assert len(res.history) >= 2  # designs had to be added
     assert res.reached and res.stop == "reached"
     assert best["max_certified_error"] <= 1e-4
     # designs were added, each where the model was worst in its round, and all within the bound
@@ -143,9 +146,11 @@ def test_adaptive_loop_stops_without_progress_and_keeps_the_best_round():
         cal, records, oracle, oracle.records, tolerance=0.01, n_dense=256, per_round=4, max_rounds=6,
         patience=2, refit_first=True,
     )  # fmt: skip
-    errs = [h["max_certified_error"] for h in res.history]
+    key = [(h["n_fail"], h["max_certified_error"]) for h in res.history]
     assert not res.reached and res.stop in ("no progress", "max rounds")
-    assert res.best["max_certified_error"] == min(errs)
+    assert (res.best["n_fail"], res.best["max_certified_error"]) == min(key)  # fewest failing, then worst
+    # the added designs lowered the worst error (here at the cost of more designs over 1 %)
+    assert min(k[1] for k in key) < 0.5 * res.history[0]["max_certified_error"]
     assert len(res.records) == res.best["n_train"]
     # the artifact of the best round: errors recomputed from its factors and records
     art = adaptive_calibration(cal, res, records[:8], {"geometry": None}, per_round=4)
