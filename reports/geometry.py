@@ -119,7 +119,8 @@ def geometry_trend_lines(res: dict) -> list[str]:
             for q in tr["fe_points"]
         ]
         slopes = [f"{s:+.2f}" for s in (tr["fe_slope_below"], tr["fe_slope_above"]) if s is not None]
-        lines.append(f"  {name} (urad) vs {dim}: " + ", ".join(cells) + f"; FE slope {' / '.join(slopes)}")
+        slope = f"; FE slope {' / '.join(slopes)}" if slopes else ""  # none with fe_points = 0
+        lines.append(f"  {name} (urad) vs {dim}: " + ", ".join(cells) + slope)
     return lines
 
 

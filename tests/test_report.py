@@ -172,6 +172,8 @@ def test_defaults_file_and_overrides_in_that_order(tmp_path):
         ("[mesh]\norder = 3\n", [], "mesh.order"),
         ("[geometry]\npedicle_x_m = 400e-6\n", [], "pedicle_x_m"),
         ("[trends]\nmoduli = ['incus']\n", [], "trends.moduli"),
+        ("", ["geometry_trends.fe_points=1"], "geometry_trends.fe_points"),
+        ("[geometry_trends]\nn_lumped = 4\n", [], "geometry_trends.n_lumped"),
         ("[calibration]\nfile = 'no/such.json'\n", [], "calibration.file"),
         ("design = 3\n", [], "design"),
         ("[design\n", [], "TOML"),
