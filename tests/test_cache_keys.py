@@ -54,6 +54,7 @@ def test_each_report_step_depends_on_the_lumped_model_exactly_when_it_uses_it():
     cfg = ReportConfig()
     ctx = Context(cfg, load_calibration(cfg), Path("unused"))
     uses_lumped = {"cases", "trends", "calibration", "sweep", "load_path", "guard", "uq", "geometry_trends"}
+    uses_lumped.add("sliding")  # each joint's lumped α, β beside FE (docs/lumped.md §3.14)
     for name, fn, _ in STEPS:
         mods = step_modules(ctx, fn)
         lumped = {m for m in mods if m.startswith("isj.lumped")}
