@@ -1,6 +1,18 @@
 """Speed of the FE verifier on the base case, and isj against scikit-fem on the same mesh.
 
 Run:  .venv/bin/python benchmarks/fem_speed.py [--order 2] [--resolution 1] [--skip-skfem]
+      .venv/bin/python benchmarks/fem_speed.py --against /tmp/isj-base [--repeat 3]
+
+With ``--against BASE`` (a checkout of older code, e.g. ``git worktree add
+/tmp/isj-base <commit>``) it measures instead the three end-to-end figures of
+docs/performance.md §8.2, each in a fresh process: ``isj fem solve`` with the
+mesh cached, a new geometry (meshed, assembled, solved, α and β; an empty
+cache), and ``isj fem cases``. The base and this checkout take turns, so that
+a loaded, shared machine slows both alike; the least wall time of the rounds
+is the least disturbed, the CPU time (user + system, all threads) the
+steadiest. It prints medians, least times, the ratios of this checkout's to
+the base's and the load average, checks that α and β agree (bit for bit,
+else to 1e-12), and writes ``benchmarks/results/fem_speed.json``.
 
 Prints mesh, assembly and solve times and dofs; the end-to-end time of
 ``isj fem solve`` with the mesh cached (a fresh process, imports included); the
@@ -14,10 +26,14 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
+import resource
+import statistics
 import subprocess
 import sys
 import tempfile
 import time
+from pathlib import Path
 
 import numpy as np
 from isj.fem.assembly import assemble_regions, build_pattern, combine, lame_unit
@@ -129,12 +145,136 @@ def end_to_end_cli(order, resolution):
     return time.perf_counter() - t0, json.loads(out)
 
 
+OUT = Path(__file__).resolve().parent / "results" / "fem_speed.json"
+
+#: Runs ``isj`` (argv after the checkout's path) from the checkout given first, whatever is installed.
+_LAUNCH = """
+import importlib.util, runpy, sys, tomllib
+from pathlib import Path
+root = Path(sys.argv.pop(1)).resolve()
+dirs = tomllib.loads((root / "pyproject.toml").read_text())["tool"]["setuptools"]["package-dir"]
+class Finder:
+    @classmethod
+    def find_spec(cls, name, path=None, target=None):
+        if name in dirs:
+            d = root / dirs[name]
+            return importlib.util.spec_from_file_location(name, d / "__init__.py",
+                                                          submodule_search_locations=[str(d)])
+        return None
+sys.meta_path.insert(0, Finder)
+runpy.run_module("isj", run_name="__main__", alter_sys=True)
+"""
+
+#: The new geometry of the second figure: the pedicle 10 µm thicker than the default's.
+NEW_GEOMETRY = "pedicle_x_m=65e-6"
+
+
+def _children_cpu_s() -> float:
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
+def _run_isj(checkout: Path, isj_args: list[str], env: dict) -> tuple[float, float, object]:
+    """Wall time (s), CPU time (s, user + system, all threads) and parsed JSON of
+    ``isj ISJ_ARGS --json`` run from ``checkout`` in a fresh process."""
+    cmd = [sys.executable, "-c", _LAUNCH, str(checkout), *isj_args, "--json"]
+    c0, t0 = _children_cpu_s(), time.perf_counter()
+    out = subprocess.run(cmd, capture_output=True, text=True, check=True, env=env).stdout
+    return time.perf_counter() - t0, _children_cpu_s() - c0, json.loads(out)
+
+
+def _angles(out) -> list[float]:
+    rows = out if isinstance(out, list) else [out]
+    return [v for r in rows for v in (r["alpha_rad"], r["beta_rad"])]
+
+
+def _load() -> list[float]:
+    return [round(x, 2) for x in os.getloadavg()]
+
+
+def against(base: Path, repeat: int, cache_dir: Path) -> dict:
+    """The three end-to-end figures, base and this checkout interleaved; see the module docstring."""
+    here = Path(__file__).resolve().parents[1]
+    sides = {"base": base.resolve(), "new": here}
+    env = dict(os.environ, ISJ_CACHE_DIR=str(cache_dir))
+    figures = {
+        "solve_cached_s": ["fem", "solve"],
+        "new_geometry_s": ["fem", "solve", "--geometry", NEW_GEOMETRY],
+        "cases_s": ["fem", "cases"],
+    }
+    for root in sides.values():  # warm the mesh (and ordering) cache of each side's code
+        _run_isj(root, figures["solve_cached_s"], env)
+    times = {f: {s: [] for s in sides} for f in figures}
+    cpu = {f: {s: [] for s in sides} for f in figures}
+    steps = {f: {} for f in figures}
+    angles = {f: {} for f in figures}
+    load = [_load()]
+    for rep in range(repeat):
+        for figure, isj_args in figures.items():
+            for side, root in sides.items():
+                run_env = env
+                if figure == "new_geometry_s":  # an empty cache: gmsh, assembly, METIS, all of it
+                    run_env = dict(env, ISJ_CACHE_DIR=tempfile.mkdtemp(dir=cache_dir))
+                t, c, out = _run_isj(root, isj_args, run_env)
+                times[figure][side].append(t)
+                cpu[figure][side].append(c)
+                angles[figure].setdefault(side, _angles(out))
+                if isinstance(out, dict):  # isj fem solve's own split of its time, the last run's
+                    steps[figure][side] = out["timings_s"]
+                print(f"  rep {rep} {figure:15s} {side:4s} {t:6.2f} s wall, {c:6.2f} s CPU", flush=True)
+        load.append(_load())
+    rows = {}
+    for figure in figures:
+        b, n = (statistics.median(times[figure][s]) for s in ("base", "new"))
+        cb, cn = (statistics.median(cpu[figure][s]) for s in ("base", "new"))
+        a_b, a_n = (angles[figure][s] for s in ("base", "new"))
+        rel = max(abs(x - y) / abs(x) for x, y in zip(a_b, a_n, strict=True))
+        rows[figure] = {
+            "base_s": times[figure]["base"],
+            "new_s": times[figure]["new"],
+            "median_base_s": b,
+            "median_new_s": n,
+            "ratio_new_to_base": n / b,
+            "min_base_s": min(times[figure]["base"]),
+            "min_new_s": min(times[figure]["new"]),
+            "min_ratio_new_to_base": min(times[figure]["new"]) / min(times[figure]["base"]),
+            "base_cpu_s": cpu[figure]["base"],
+            "new_cpu_s": cpu[figure]["new"],
+            "cpu_ratio_new_to_base": cn / cb,
+            "alpha_beta_bitwise_equal": a_b == a_n,
+            "alpha_beta_max_rel_diff": rel,
+            "steps_s": steps[figure],
+        }
+        print(
+            f"{figure:15s} median base {b:6.2f} s  new {n:6.2f} s  ratio {n / b:.2f}; "
+            f"least {min(times[figure]['base']):.2f} s, {min(times[figure]['new']):.2f} s; "
+            f"CPU {cb:.2f} s, {cn:.2f} s, ratio {cn / cb:.2f}  "
+            f"alpha, beta {'bit for bit' if a_b == a_n else f'within {rel:.1e}'}"
+        )
+    print(f"load average (1, 5, 15 min) before and after each round: {load}")
+    return {"figures": rows, "load_average": load, "repeat": repeat, "cpus": os.cpu_count()}
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--order", type=int, default=2, choices=(1, 2))
     ap.add_argument("--resolution", type=float, default=1.0)
     ap.add_argument("--skip-skfem", action="store_true")
+    ap.add_argument("--against", type=Path, metavar="BASE", help="a checkout of older code to compare with")
+    ap.add_argument("--repeat", type=int, default=3, help="rounds with --against (default 3)")
     args = ap.parse_args(argv)
+    if args.against is not None:
+        with tempfile.TemporaryDirectory() as tmp:
+            result = against(args.against, args.repeat, Path(tmp))
+        result["base_commit"] = subprocess.run(
+            ["git", "-C", str(args.against), "rev-parse", "HEAD"], capture_output=True, text=True
+        ).stdout.strip()
+        OUT.write_text(json.dumps(result, indent=2, sort_keys=True) + "\n")
+        print(f"wrote {OUT}")
+        worst = max(f["alpha_beta_max_rel_diff"] for f in result["figures"].values())
+        if worst > 1e-12:  # faster, but not the same answers: a failure, not a figure
+            sys.exit(f"alpha, beta differ from the base's by {worst:.1e} (relative) > 1e-12")
+        return
     g, mat = Geometry(), Materials()
 
     with tempfile.TemporaryDirectory() as tmp:
