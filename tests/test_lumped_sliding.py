@@ -167,7 +167,7 @@ def test_seven_cases_against_fe():
 
 @pytest.mark.xfail(
     strict=True,
-    reason="c100: FE's α falls 1.0 % with sliding, the lumped α rises 0.4 %; the plate face's "
+    reason="c100: FE's α falls 1.0 % with sliding, the lumped α rises; the plate face's "
     "foundation exponent is the bonded joint's 3/4 (docs/lumped.md 3.14: 1/4 gets all three right)",
 )
 def test_sliding_against_bonded_as_fe_says():
