@@ -67,14 +67,17 @@ class Reduction:
         free = np.flatnonzero(is_free)
         new_id = np.full(n, -1, dtype=np.int64)
         new_id[free] = np.arange(free.size)
-        rows = pattern.rows()
-        keep = is_free[rows] & is_free[pattern.indices]
-        counts = np.bincount(new_id[rows[keep]], minlength=free.size)
-        indptr = np.concatenate([[0], np.cumsum(counts)])
+        # an entry survives if its row and its column are free; rows counted by a running
+        # sum, not from a row index per entry (three times faster, docs/performance.md §8.2)
+        keep = np.repeat(is_free, np.diff(pattern.indptr))
+        keep &= is_free[pattern.indices]
+        kept_before = np.concatenate([[0], np.cumsum(keep)])
+        per_row = kept_before[pattern.indptr[1:]] - kept_before[pattern.indptr[:-1]]
+        keep = np.flatnonzero(keep)
         return cls(
             free=free,
-            keep=np.flatnonzero(keep),
-            indptr=indptr,
+            keep=keep,
+            indptr=np.concatenate([[0], np.cumsum(per_row[free])]),
             indices=new_id[pattern.indices[keep]],
             n_dofs=n,
         )
