@@ -329,3 +329,51 @@ def test_calibrate_adaptive_refuses_the_geometry_domain_and_other_joints(tmp_pat
         err = capsys.readouterr().err
         assert code == 2 and "--adaptive" in err and len(err.strip().splitlines()) == 1
         assert not (tmp_path / "c.json").exists()
+
+
+def _fe_checks():
+    cal = default_calibration()
+    return cal, cal.provenance["adaptive"]["fe_checks"]
+
+
+def test_shipped_calibration_claims_recomputed_at_its_fe_checks():
+    # the shipped adaptive calibration (docs/lumped.md §3.15) stores FE at the four worst designs
+    # of its corners and of 65,536 Sobol designs it was not fitted on; its factors must give the
+    # stored lumped errors there, within the claimed worst error, and its map must mark every one
+    # over 3 % as outside the region
+    from isj.calibration.region import in_region
+
+    cal, checks = _fe_checks()
+    assert cal.format == 5 and cal.region and cal.factors["pedicle_face"] > 0
+    best = cal.provenance["adaptive"]["history"][cal.provenance["adaptive"]["best_round"]]
+    assert len(checks) == 4
+    for row in checks:
+        d = row["design"]
+        a, b = equations(moduli_arrays(**d), cal.factor_array(), Lever.from_geometry(Geometry()))
+        ea, eb = a * P / row["fe_alpha_rad"] - 1, b * P / row["fe_beta_rad"] - 1
+        er = (b / a) / row["fe_beta_over_alpha"] - 1
+        assert ea == pytest.approx(row["alpha_rel_error_vs_fe"], rel=1e-9, abs=1e-12)
+        assert eb == pytest.approx(row["beta_rel_error_vs_fe"], rel=1e-9, abs=1e-12)
+        assert er == pytest.approx(row["beta_over_alpha_rel_error_vs_fe"], rel=1e-9, abs=1e-12)
+        worst = max(abs(ea), abs(eb), abs(er))
+        assert worst <= best["max_certified_error"] + 1e-12  # true error within the claimed worst
+        for k in ("alpha_rad", "beta_rad", "beta_over_alpha"):  # FE within the surrogate's bound
+            bound = {"alpha_rad": "alpha_bound_rad", "beta_rad": "beta_bound_rad"}.get(
+                k, "beta_over_alpha_bound"
+            )
+            assert abs(row[f"fe_{k}"] - row[f"surrogate_{k}"]) <= row[f"surrogate_{bound}"]
+        inside = in_region(cal.region, cal.domain, {k: np.array([v]) for k, v in d.items()})[0]
+        assert not (inside and worst > 0.03)
+
+
+@pytest.mark.slow
+def test_shipped_calibration_fe_checks_are_fe():
+    # FE on the calibration's mesh (P2, resolution 1) at two of the stored designs: seconds each
+    from isj.fem.batch import evaluate_design, fe_settings
+
+    _, checks = _fe_checks()
+    settings = fe_settings(order=2, resolution=1.0)
+    for row in checks[:2]:
+        fe = evaluate_design(row["design"], settings)
+        assert fe["alpha_rad"] == pytest.approx(row["fe_alpha_rad"], rel=1e-9)
+        assert fe["beta_rad"] == pytest.approx(row["fe_beta_rad"], rel=1e-9)

@@ -61,8 +61,8 @@ def test_static_limit_is_the_calibrated_static_model(shear):
     eta = dict.fromkeys(("stapes", "gap", "plate", "pedicle", "incus", "capsule"), 0.07)
     chain = chain_model(f, shear, damping="undamped", loss_factor=eta, **moduli)
     dyn = frequency_response(chain, [0.0], 28.5)
-    np.testing.assert_allclose(dyn[:, 0, 0], st.alpha_rad / (1 + 0.07j), rtol=1e-12)
-    np.testing.assert_allclose(dyn[:, 0, 1], st.beta_rad / (1 + 0.07j), rtol=1e-12)
+    np.testing.assert_allclose(dyn[:, 0, 0], st.alpha_rad / (1 + 0.07j), rtol=1e-11)
+    np.testing.assert_allclose(dyn[:, 0, 1], st.beta_rad / (1 + 0.07j), rtol=1e-11)
 
 
 def test_pedicle_is_a_timoshenko_cantilever_with_the_calibrated_tip_rotation():
@@ -261,7 +261,7 @@ def test_joint_coupling_gives_the_calibrated_rotations_under_the_isolated_load()
     load_d = np.array([force, force * arm])  # work-conjugate to (u_x at z_j, rotation)
     ab = np.linalg.solve(jc.stiffness, (np.swapaxes(jc.motion, -1, -2) @ load_d)[..., None])[..., 0]
     st = static_response(f, g, pressure_pa=1.0, **moduli)
-    np.testing.assert_allclose(ab[:, 0], st.alpha_rad, rtol=1e-12)
-    np.testing.assert_allclose(ab[:, 1], st.beta_rad, rtol=1e-12)
+    np.testing.assert_allclose(ab[:, 0], st.alpha_rad, rtol=1e-11)
+    np.testing.assert_allclose(ab[:, 1], st.beta_rad, rtol=1e-11)
     np.testing.assert_allclose(jc.stiffness, np.swapaxes(jc.stiffness, -1, -2), rtol=1e-10)
     assert np.all(np.linalg.eigvalsh(jc.stiffness) > 0)
