@@ -162,11 +162,12 @@ def test_probability_and_its_interval_cover_a_known_p():
 
 
 def test_lumped_model_structure_in_the_indices():
-    """The lumped model's β has no capsule and α no pedicle term (docs/lumped.md §3.4): their
-    total indices are exactly 0; β is driven by the pedicle and the plate."""
+    """The lumped model's β has no capsule term (docs/lumped.md §3.4): its total index is exactly
+    0; α's one pedicle term, the pedicle's face (§3.15), is small beside the joint's; β is driven
+    by the pedicle and the plate."""
     r = run_uq(UQConfig.default(samples=20_000, sobol_samples=1024, bootstrap=20))
     assert r.sobol["beta_rad"]["ST"]["capsule_e_pa"] == 0
-    assert r.sobol["alpha_rad"]["ST"]["pedicle_e_pa"] == 0
+    assert 0 < r.sobol["alpha_rad"]["ST"]["pedicle_e_pa"] < 0.01
     assert [k for k, _ in r.top_total("beta_rad", 2)] == ["pedicle_e_pa", "plate_e_pa"]
     direct = lumped_evaluator()(sample_moduli(r.config))
     assert r.n_beta_over_alpha_gt_1 == int(np.count_nonzero(direct[1] / direct[0] > 1))
