@@ -93,6 +93,42 @@ def test_bound_target_met_on_a_fresh_dense_sample(rom):
         rel = ev[kb] / np.abs(ev[k])
         assert rel.max() <= rom.meta["tol"], k
     assert rom.meta["converged"] and rom.meta["validate_max_rel_bound"] <= rom.meta["tol"]
+    assert rom.meta["local_validate_max_rel_bound"] <= rom.meta["tol"]
+
+
+def test_local_arrays_of_the_whole_basis_reproduce_the_global_ones(rom):
+    """Φ = I: the same outputs to round-off, and bounds no smaller than the global ones."""
+    from isj.fem.rom.local import compress
+    from isj.fem.rom.online import SPACES, evaluate_unit
+
+    arr = {k: v for k, v in rom.arrays.items() if not k.startswith("box")}
+    loc = compress(arr, {s: np.eye(arr[f"{s}_g"].size) for s in SPACES})
+    theta = rom.space.theta(np.concatenate([rom.space.corners(), rom.space.sample(256, seed=4)]))
+    glob, ours = evaluate_unit(arr, theta), evaluate_unit(loc, theta)
+    for key in ("alpha", "beta"):
+        assert np.allclose(ours[key], glob[key], rtol=1e-11, atol=0)
+        assert np.all(ours[f"{key}_bound"] >= glob[f"{key}_bound"] * (1 - 1e-9))
+        # the guards added for forming R Φ and for the QR factor are small against the bound
+        assert np.median(ours[f"{key}_bound"] / glob[f"{key}_bound"]) < 1.01
+
+
+def test_designs_go_to_their_sub_box(rom):
+    from isj.fem.rom.local import SPLIT, box_index
+    from isj.fem.rom.online import evaluate_unit
+
+    bits = (np.arange(32)[:, None] >> np.arange(5)) & 1
+    assert np.array_equal(box_index(bits.astype(float)), np.arange(32))  # the face t = 1 is inside
+    assert np.array_equal(box_index(np.full((1, 5), 1 / SPLIT)), [31])
+    assert len(rom.boxes) == 32 and len(rom.meta["local_sizes"]) == 32
+    assert all(1 <= k <= rom.n_basis["primal"] for k in rom.meta["local_sizes"])
+    E = rom.space.sample(64, seed=8)
+    got = rom.evaluate(E, 1.0)
+    idx = box_index(rom.space.to_unit(E))
+    for b in np.unique(idx)[:4]:
+        sel = idx == b
+        ref = evaluate_unit(rom.boxes[b], rom.space.theta(E[sel]))
+        assert np.array_equal(got["alpha_rad"][sel], ref["alpha"])
+        assert np.array_equal(got["beta_bound_rad"][sel], ref["beta_bound"])
 
 
 def test_min_theta_is_the_coercivity_constant(fe, rom):

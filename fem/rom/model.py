@@ -29,10 +29,11 @@ from isj.digest import code_digest
 from isj.errors import CacheWarning, InvalidParameter
 
 from .domain import RANGED, DesignSpace
+from .local import evaluate_local, unpack
 from .online import derived_bounds, evaluate_unit
 
 #: Bump when the stored arrays change meaning.
-ROM_FORMAT_VERSION = 1
+ROM_FORMAT_VERSION = 2
 
 #: Default greedy settings: target relative bound, training and validation sample sizes.
 DEFAULT_TOL = 1e-3
@@ -66,6 +67,7 @@ class ReducedModel:
         self.arrays = {k: np.asarray(v) for k, v in arrays.items()}
         self.space = space
         self.meta = dict(meta)
+        self.boxes = unpack(self.arrays)  # the sub-boxes' local arrays (fem/rom/local.py)
 
     # ---- sizes -------------------------------------------------------------------------
 
@@ -113,14 +115,19 @@ class ReducedModel:
             E = self.space.check(designs)
         else:
             E = self.space.designs_from(designs, **moduli)
+        from ..ear.reduced import one_blas_thread
+
         theta = self.space.theta(E)
-        if theta.shape[0] >= THREAD_MIN:
-            halves = np.array_split(theta, 2)
-            with ThreadPoolExecutor(2) as pool:
-                parts = list(pool.map(lambda t: evaluate_unit(self.arrays, t), halves))
-            ev = {k: np.concatenate([q[k] for q in parts]) for k in parts[0]}
-        else:
-            ev = evaluate_unit(self.arrays, theta)
+        # one OpenBLAS thread per evaluating thread: the products are small, and OpenBLAS's own
+        # threads on top of these made them several times slower on two shared cores
+        with one_blas_thread():
+            if theta.shape[0] >= THREAD_MIN:
+                halves = zip(np.array_split(E, 2), np.array_split(theta, 2), strict=True)
+                with ThreadPoolExecutor(2) as pool:
+                    parts = list(pool.map(lambda et: self._evaluate_unit(*et), halves))
+                ev = {k: np.concatenate([q[k] for q in parts]) for k in parts[0]}
+            else:
+                ev = self._evaluate_unit(E, theta)
         a, da = ev["alpha"] * p, ev["alpha_bound"] * abs(p)
         b, db = ev["beta"] * p, ev["beta_bound"] * abs(p)
         der = derived_bounds(a, da, b, db)
@@ -135,6 +142,12 @@ class ReducedModel:
             "beta_over_alpha_bound": der["ratio_bound"],
             "coercivity_lb": ev["alpha_lb"],
         }
+
+    def _evaluate_unit(self, E: np.ndarray, theta: np.ndarray) -> dict:
+        """Per unit pressure: each design in its sub-box's local spaces, else the global ones."""
+        if self.boxes:
+            return evaluate_local(self.boxes, self.space.to_unit(E), theta)
+        return evaluate_unit(self.arrays, theta)
 
     def solve(self, materials=None, pressure_pa: float = DEFAULT_PRESSURE_PA, **moduli) -> dict:
         """One design: the keys of :meth:`evaluate` as floats, plus the moduli and the model's sizes."""
@@ -237,7 +250,9 @@ def build_reduced_model(
     designs (seed ``seed + 1``). Stops when every validation design's relative bound on α,
     β and β/α is at most ``tol`` (or at ``max_snapshots``; ``meta["converged"]`` says which).
     """
-    from .offline import Greedy, run_greedy
+    from ..ear.reduced import one_blas_thread
+    from .local import local_bases, pack
+    from .offline import Greedy, relative_bounds, run_greedy
 
     space = space or DesignSpace()
     if not (isinstance(tol, float | int) and 0 < tol < 1):
@@ -251,6 +266,13 @@ def build_reduced_model(
     )
     hist = run_greedy(greedy, train, validate, tol, max_steps=max_snapshots, progress=progress)
     arrays = greedy.arrays(orthogonality=True)
+    t_local = time.perf_counter()
+    with one_blas_thread():  # small dense work: OpenBLAS's threads only wait for each other
+        boxes, sizes = local_bases(arrays, space, tol, seed=seed)
+    arrays |= pack(boxes)
+    local_max = float(
+        np.max(relative_bounds(arrays, space.theta(validate), boxes=boxes, t=space.to_unit(validate))[0])
+    )
     meta = {
         "mesh_hash": model.mesh.content_hash(),
         "order": model.order,
@@ -262,6 +284,9 @@ def build_reduced_model(
         "tol": tol,
         "converged": hist["converged"],
         "validate_max_rel_bound": hist["validate_max_rel_bound"],
+        "local_sizes": sizes,
+        "local_validate_max_rel_bound": local_max,
+        "local_time_s": time.perf_counter() - t_local,
         "n_validate": int(validate.shape[0]),
         "history": hist["history"],
         "build_time_s": time.perf_counter() - t0,

@@ -63,7 +63,8 @@ def residual_norm(c: np.ndarray, R: np.ndarray, eta: np.ndarray, scale: float) -
     Q's departure from orthonormality, and Σ_j η_j |c_j|, with η_j the error radius of
     representer j (its solve, its orthogonalisation) plus γ_m ‖R_j‖ for the round-off of R c.
     """
-    return scale * np.linalg.norm(c @ R.T, axis=1) + np.abs(c) @ eta
+    y = c @ R.T
+    return scale * np.sqrt(np.einsum("ij,ij->i", y, y)) + np.abs(c) @ eta
 
 
 def _solve(arr: dict, s: str, theta: np.ndarray) -> np.ndarray:
@@ -115,7 +116,8 @@ def _evaluate_block(arr: dict, theta: np.ndarray) -> dict[str, np.ndarray]:
             # s_N = ℓ(u_N) − r_pr(ψ_N) with r_pr(ψ_N) = f(W y) − Σ_r θ_r yᵀ C_r x; the dual solves
             # K ψ = −ℓ, so s − s_N = −a(e, e_du): the product of the two errors
             Cx = (xu @ C.transpose(2, 0, 1).reshape(ku, n_r * kd)).reshape(-1, n_r, kd)
-            s = s - xd @ arr[f"{d}_fw"] + np.einsum("br,brk,bk->b", theta, Cx, xd)
+            Cx = np.einsum("br,brk->bk", theta, Cx)  # two two-operand contractions: BLAS-free but
+            s = s - xd @ arr[f"{d}_fw"] + np.einsum("bk,bk->b", Cx, xd)  # far faster than one of three
         out[name] = s
         out[f"{name}_bound"] = res["u"] * res[d] / lb + floor * np.abs(s)
     return out

@@ -104,6 +104,8 @@ def build(args) -> int:
         "converged": m["converged"],
         "tol": m["tol"],
         "validate_max_rel_bound": m["validate_max_rel_bound"],
+        "local_validate_max_rel_bound": m.get("local_validate_max_rel_bound"),
+        "local_sizes": m.get("local_sizes"),
         "n_validate": m["n_validate"],
         "build_time_s": m["build_time_s"],
         "time_s": time.perf_counter() - t0,
@@ -122,6 +124,14 @@ def build(args) -> int:
         f"largest relative bound over {m['n_validate']} validation designs (corners included): "
         f"{m['validate_max_rel_bound']:.2e} (target {m['tol']:g}{'' if m['converged'] else ', NOT reached'})"
     )
+    if m.get("local_sizes"):
+        sizes = m["local_sizes"]
+        print(
+            f"local bases in {len(sizes)} sub-boxes: sizes {min(sizes)}-{max(sizes)} "
+            f"of {rom.n_basis['primal']}; "
+            f"largest relative bound over the validation designs through them "
+            f"{m['local_validate_max_rel_bound']:.2e}"
+        )
     print(f"built in {m['build_time_s']:.1f} s; this call {out['time_s']:.2f} s")
     return 0 if m["converged"] else c.fail(f"the target bound {m['tol']:g} was not reached")
 
