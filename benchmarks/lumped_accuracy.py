@@ -88,7 +88,7 @@ def corner_check(cal) -> None:
 def domain_check(cal, rom, label: str) -> None:
     """Worst certified lumped error over corners and dense samples of the domain (docs/lumped.md §3.15)."""
     from isj.calibration.guard import _base, corner_designs, dense_designs, guard_set
-    from isj.calibration.region import in_region
+    from isj.calibration.region import in_region, region_of
 
     domain = {k: tuple(v) for k, v in cal.domain.items()}
     base = _base(rom)
@@ -105,7 +105,7 @@ def domain_check(cal, rom, label: str) -> None:
         w = s["worst"]
         where = ", ".join(f"{k.removesuffix('_e_pa')} {w[k]:.3g}" for k in w if k.endswith("_e_pa"))
         line = f"  {name:21}: worst certified {100 * s['max_certified_error']:.2f} %, {s['n_fail']} over 3 %"
-        inside = in_region(cal.region, cal.domain, g.designs)
+        inside = in_region(region_of(cal), cal.domain, g.designs)
         if inside is not None:
             fail = g.verdict == "fail"
             line += (

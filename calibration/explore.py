@@ -28,7 +28,7 @@ from isj.errors import InvalidParameter
 from .checks import StaticComparison, compare_static, lumped_static, warn_fe_settings, warn_outside_domain
 from .doe import Bounds, DesignSpace, _engine
 from .guard import DEFAULT_DENSE, DEFAULT_TOLERANCE, Guard, confirmations, run_guard, worst_picks
-from .region import in_region
+from .region import in_region, region_of
 
 #: Most designs one exploration evaluates: about 6 arrays of 8 bytes each per design, ~2.4 GB.
 MAX_DESIGNS = 50_000_000
@@ -255,5 +255,5 @@ def explore(
         guard=guard,
         pick_sets=[name for name, _ in pairs],
         confirmations=confirmed,
-        in_region=in_region(calibration.region, calibration.domain, designs),
+        in_region=in_region(region_of(calibration), calibration.domain, designs),
     )

@@ -91,7 +91,8 @@ def build_region(
     Returns
     -------
     dict
-        ``tolerance``, ``margin``, ``cells``, ``moduli`` (the ranged ones, in cell order),
+        ``factors`` and ``domain`` (what the map holds for), ``tolerance``, ``margin``, ``cells``,
+        ``moduli`` (the ranged ones, in cell order),
         ``outside`` (hex bit mask), ``n_sample``, ``seed``, ``n_cells_outside``,
         ``fraction_outside`` (of the cells), ``max_certified_error`` (over the sample and corners).
     """
@@ -114,6 +115,10 @@ def build_region(
         bad.flat[_flat(idx, cells)] = True
     outside = _dilate(bad)
     return {
+        # the factors and domain the map holds for: any other factors (a refit, a user's file made
+        # from this one) have no map (:func:`region_of`)
+        "factors": {k: float(v) for k, v in calibration.factors.items()},
+        "domain": {k: [float(lo), float(hi)] for k, (lo, hi) in domain.items()},
         "tolerance": float(tolerance),
         "margin": float(margin),
         "cells": int(cells),
@@ -125,6 +130,21 @@ def build_region(
         "fraction_outside": float(outside.mean()),
         "max_certified_error": worst,
     }
+
+
+def region_of(calibration) -> dict:
+    """``calibration``'s map if it was built for its factors and domain, else ``{}`` (no map).
+
+    A calibration made from another by changing its factors or domain (``dataclasses.replace``)
+    keeps the other's ``region`` block; the map does not hold for it, and is not used.
+    """
+    r = calibration.region
+    if not r:
+        return {}
+    domain = {k: [float(lo), float(hi)] for k, (lo, hi) in calibration.domain.items()}
+    if r.get("factors") != dict(calibration.factors) or r.get("domain") != domain:
+        return {}
+    return dict(r)
 
 
 def in_region(region: Mapping, domain: Mapping, designs: Mapping[str, np.ndarray]) -> np.ndarray | None:

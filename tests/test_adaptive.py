@@ -228,6 +228,8 @@ def _mapped_calibration(tmp_path, outside_low_gap: bool):
         "cells": 2,
         "moduli": names,
         "outside": np.packbits(mask.ravel()).tobytes().hex(),
+        "factors": dict(cal.factors),
+        "domain": {k: list(v) for k, v in cal.domain.items()},
     }
     path = tmp_path / "cal.json"
     path.write_text(dataclasses.replace(cal, region=region).to_json())
@@ -265,7 +267,15 @@ def test_lumped_solve_marks_a_design_outside_the_region(tmp_path, capsys, monkey
     # the shipped calibration's own answer carries its region block (None: no map)
     assert main(["lumped", "solve", "--json"]) == 0
     shipped = json.loads(capsys.readouterr().out)
-    assert ("region" in shipped) and (shipped["region"] is None) == (not default_calibration().region)
+    assert shipped["region"] == {"tolerance": 0.03, "inside": True}  # the default design, in the map
+    # a calibration made from the shipped one with other factors keeps its block, not its map
+    other = dataclasses.replace(cal, factors=dict(cal.factors, gap=2.0))
+    (tmp_path / "other.json").write_text(other.to_json())
+    assert (
+        main(["lumped", "solve", "--calibration", str(tmp_path / "other.json"), "--json", "--gap-e", "2e6"])
+        == 0
+    )
+    assert json.loads(capsys.readouterr().out)["region"] is None
 
 
 def test_explore_marks_designs_outside_the_region(tmp_path, capsys):
@@ -341,10 +351,10 @@ def test_shipped_calibration_claims_recomputed_at_its_fe_checks():
     # of its corners and of 65,536 Sobol designs it was not fitted on; its factors must give the
     # stored lumped errors there, within the claimed worst error, and its map must mark every one
     # over 3 % as outside the region
-    from isj.calibration.region import in_region
+    from isj.calibration.region import in_region, region_of
 
     cal, checks = _fe_checks()
-    assert cal.format == 5 and cal.region and cal.factors["pedicle_face"] > 0
+    assert cal.format == 5 and region_of(cal) and cal.factors["pedicle_face"] > 0
     best = cal.provenance["adaptive"]["history"][cal.provenance["adaptive"]["best_round"]]
     assert len(checks) == 4
     for row in checks:
@@ -362,7 +372,7 @@ def test_shipped_calibration_claims_recomputed_at_its_fe_checks():
                 k, "beta_over_alpha_bound"
             )
             assert abs(row[f"fe_{k}"] - row[f"surrogate_{k}"]) <= row[f"surrogate_{bound}"]
-        inside = in_region(cal.region, cal.domain, {k: np.array([v]) for k, v in d.items()})[0]
+        inside = in_region(region_of(cal), cal.domain, {k: np.array([v]) for k, v in d.items()})[0]
         assert not (inside and worst > 0.03)
 
 

@@ -51,12 +51,13 @@ def region_marks(cal, designs, geometry, pressure_pa) -> dict:
     """``region`` (is the design inside the map of where the lumped model holds its tolerance?) and,
     outside it, ``surrogate`` (the certified surrogate's values, when its build is cached) or
     ``surrogate_note`` (why not). docs/lumped.md section 3.15."""
-    from isj.calibration.region import in_region
+    from isj.calibration.region import in_region, region_of
 
-    inside = in_region(cal.region, cal.domain, designs)
+    region = region_of(cal)
+    inside = in_region(region, cal.domain, designs)
     if inside is None:
         return {"region": None}
-    out = {"region": {"tolerance": float(cal.region["tolerance"]), "inside": bool(inside[0])}}
+    out = {"region": {"tolerance": float(region["tolerance"]), "inside": bool(inside[0])}}
     if inside[0]:
         return out
     fe = cal.fe_settings

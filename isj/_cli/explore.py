@@ -232,8 +232,10 @@ def _region_summary(cal, ex) -> dict | None:
     """How many explored designs lie outside the calibration's map of its tolerance (None: no map)."""
     if ex.in_region is None:
         return None
+    from isj.calibration.region import region_of
+
     n_out = int(ex.in_region.size - ex.in_region.sum())
-    return {"tolerance": float(cal.region["tolerance"]), "n_outside": n_out, "n": int(ex.in_region.size)}
+    return {"tolerance": float(region_of(cal)["tolerance"]), "n_outside": n_out, "n": int(ex.in_region.size)}
 
 
 def _pct(x) -> str:
