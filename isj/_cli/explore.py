@@ -286,7 +286,7 @@ def _print(args, ex, checks, g, region=None) -> None:
     print(f"{n_ok}/{len(checks)} spot checks within {100 * args.tolerance:g} %{note}")
     if region and region["n_outside"]:
         r = region
-        beside = "the surrogate's values beside the lumped ones" if g["available"] else "no guard: no surrogate"
+        beside = "the surrogate's values beside the lumped ones" if g["available"] else "no surrogate"
         print(
             f"{r['n_outside']}/{r['n']} explored designs lie OUTSIDE the region where the lumped model holds "
             f"{100 * r['tolerance']:g} % (certified; in_region = false in designs.csv, {beside})"
