@@ -387,3 +387,37 @@ def test_shipped_calibration_fe_checks_are_fe():
         fe = evaluate_design(row["design"], settings)
         assert fe["alpha_rad"] == pytest.approx(row["fe_alpha_rad"], rel=1e-9)
         assert fe["beta_rad"] == pytest.approx(row["fe_beta_rad"], rel=1e-9)
+
+
+def test_calibrate_adaptive_cli_writes_the_loop_and_the_map(tmp_path, capsys, monkeypatch):
+    # the command's wiring on a coarse P1 mesh: FE through the runner, a stand-in surrogate (the
+    # lumped model with the shipped factors; FE on this mesh lies far from it, so the loop's FE
+    # checks are recorded as unconfirmed), one round of two designs, the map in the artifact
+    from isj._cli import explore as cli_explore
+    from isj.cli import main
+
+    monkeypatch.setenv("ISJ_FE_CACHE_DIR", str(tmp_path / "fe"))
+    oracle = LumpedOracle(default_calibration().factor_array(), default_calibration().domain, rel=1e-3)
+    monkeypatch.setattr(cli_explore, "load_surrogate", lambda *a, **k: (oracle, None))
+    out = tmp_path / "cal.json"
+    argv = ["calibrate", "--adaptive", "--samples", "16", "--validation", "0", "--modal-samples", "0"]
+    argv += [
+        "--order",
+        "1",
+        "--resolution",
+        "0.35",
+        "--rounds",
+        "1",
+        "--per-round",
+        "2",
+        "--guard-sample",
+        "64",
+    ]
+    assert main([*argv, "--out", str(out), "-q"]) == 0
+    text = capsys.readouterr().out
+    assert "adaptive:" in text and "of the calibrated domain lies outside" in text
+    cal = Calibration.load(out)
+    a = cal.provenance["adaptive"]
+    assert a["per_round"] == 2 and a["n_dense"] == 64 and len(a["history"]) in (1, 2)
+    assert cal.training["n"] == 16 + a["n_added"] and a["n_added"] in (0, 2)
+    assert cal.region["factors"] == cal.factors and 0 <= cal.region["fraction_outside"] <= 1
