@@ -421,3 +421,22 @@ def test_calibrate_adaptive_cli_writes_the_loop_and_the_map(tmp_path, capsys, mo
     assert a["per_round"] == 2 and a["n_dense"] == 64 and len(a["history"]) in (1, 2)
     assert cal.training["n"] == 16 + a["n_added"] and a["n_added"] in (0, 2)
     assert cal.region["factors"] == cal.factors and 0 <= cal.region["fraction_outside"] <= 1
+
+
+def test_cached_surrogate_finds_what_reduced_model_stored_and_never_builds(tmp_path, monkeypatch):
+    # isj lumped solve's look-up names the cache entry as isj.fem.rom.reduced_model does
+    from isj.fem.rom import reduced_model, rom_cache_dir
+
+    from isj._cli._region import cached_surrogate
+
+    monkeypatch.setenv("ISJ_FE_CACHE_DIR", str(tmp_path))
+    kw = {"tol": 1e-2, "n_train": 64, "n_validate": 256}  # a small, coarse surrogate (seconds)
+    none, why = cached_surrogate(1, 0.35, **kw)
+    assert none is None and "not built yet" in why and "isj rom build" in why
+    assert not rom_cache_dir().exists() or not any(rom_cache_dir().iterdir())  # nothing built
+    rom = reduced_model(order=1, resolution=0.35, **kw)
+    got, why = cached_surrogate(1, 0.35, **kw)
+    assert why is None and got.sizes() == rom.sizes()
+    E = np.array([[5e9, 10e6, 50e6, 1e9, 1e9]])
+    assert got.evaluate(E, P)["alpha_rad"][0] == rom.evaluate(E, P)["alpha_rad"][0]
+    assert cached_surrogate(1, 0.35, **(kw | {"tol": 2e-2}))[0] is None  # other settings: another entry
