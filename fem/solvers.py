@@ -439,14 +439,16 @@ def make_complex_symmetric_solver(A: sp.csr_matrix, backend: str = "auto", perm:
 def ordering_key(upper: _Upper, mtype: int) -> str:
     """sha256 (hex) of what PARDISO's fill-reducing ordering depends on.
 
-    The pattern PARDISO sees (the upper triangle), the matrix type, MKL's
-    version and the thread count (METIS runs sequentially, but a cached
+    The pattern PARDISO sees (the upper triangle), the matrix type, the
+    version of the MKL library loaded (as it reports itself, whichever way it
+    was installed) and the thread count (METIS runs sequentially, but a cached
     ordering is reused only where it was made).
     """
-    from importlib.metadata import version
-
+    buf = ctypes.create_string_buffer(256)
+    _pypardiso().ps.libmkl.MKL_Get_Version_String(buf, ctypes.c_int(len(buf)))
+    mkl = buf.value.decode(errors="replace").strip()
     h = hashlib.sha256()
-    h.update(f"mkl={version('mkl')}|mtype={mtype}|iparm2=default|threads={solver_threads()}|".encode())
+    h.update(f"mkl={mkl}|mtype={mtype}|iparm2=default|threads={solver_threads()}|".encode())
     h.update(f"n={upper.shape[0]}|".encode())
     h.update(np.ascontiguousarray(upper.indptr, dtype=np.int32).tobytes())
     h.update(np.ascontiguousarray(upper.indices, dtype=np.int32).tobytes())
