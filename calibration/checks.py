@@ -66,7 +66,9 @@ def lumped_static(
     else:
         keys = [k for k in designs[0] if k.endswith("_e_pa")] if designs else []
         moduli = {k: np.array([float(d[k]) for d in designs]) for k in keys}
-    return static_response(calibration.factor_array(), geometry, pressure_pa, **moduli)
+    return static_response(
+        calibration.factor_array(), geometry, pressure_pa, joint=calibration.joint, **moduli
+    )
 
 
 @dataclass(frozen=True)

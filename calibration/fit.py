@@ -79,13 +79,20 @@ def _casadi_lever(lever: Lever, n: int) -> Lever:
     )
 
 
-def relative_errors(factors, E, alpha_fe, beta_fe, lever: Lever) -> tuple[np.ndarray, np.ndarray]:
-    a, b = equations(E, np.asarray(factors, dtype=float), lever)
+def relative_errors(
+    factors, E, alpha_fe, beta_fe, lever: Lever, joint: str = "bonded"
+) -> tuple[np.ndarray, np.ndarray]:
+    a, b = equations(E, np.asarray(factors, dtype=float), lever, joint)
     return a / alpha_fe - 1, b / beta_fe - 1
 
 
 def fit_factors(
-    records: list[dict], geometry: Geometry | None = None, x0=None, max_iter: int = 500, norm: float = 2
+    records: list[dict],
+    geometry: Geometry | None = None,
+    x0=None,
+    max_iter: int = 500,
+    norm: float = 2,
+    joint: str = "bonded",
 ) -> FitResult:
     """Calibrate the lumped factors on FE records (see :func:`fe_arrays`).
 
@@ -93,7 +100,8 @@ def fit_factors(
     then fitted together. ``norm`` p > 2 minimises the L^p norm of the relative errors of α, β
     and β/α instead of the sum of squares of α's and β's: each residual r becomes
     r (r²/s² + 10⁻¹²)^((p − 2)/4), s = :data:`NORM_SCALE`, so that ½ Σ r'² = ½ s^(2−p) Σ |r|^p,
-    which for large p approaches the largest error (docs/lumped.md §3.15).
+    which for large p approaches the largest error (docs/lumped.md §3.15). ``joint`` is the FE
+    records' joint, "bonded" or "sliding" (:func:`isj.lumped.model.equations`).
     """
     import casadi as ca
 
@@ -105,7 +113,7 @@ def fit_factors(
     logf = ca.SX.sym("log_factors", n)
     f = ca.exp(logf)
     Edm = {k: ca.DM(np.broadcast_to(v, alpha_fe.shape)) for k, v in E.items()}
-    a, b = equations(Edm, [f[i] for i in range(n)], _casadi_lever(lever, alpha_fe.size))
+    a, b = equations(Edm, [f[i] for i in range(n)], _casadi_lever(lever, alpha_fe.size), joint)
     r = ca.vertcat(a / ca.DM(alpha_fe) - 1, b / ca.DM(beta_fe) - 1)
     if norm != 2:
         r = ca.vertcat(r, (b / a) / ca.DM(beta_fe / alpha_fe) - 1)
@@ -142,7 +150,7 @@ def fit_factors(
     if not stats.get("success", False):
         raise FitFailed(f"calibration fit failed: IPOPT {stats.get('return_status')}", dict(stats))
     factors = np.exp(np.asarray(sol["x"]).ravel())
-    ea, eb = relative_errors(factors, E, alpha_fe, beta_fe, lever)
+    ea, eb = relative_errors(factors, E, alpha_fe, beta_fe, lever, joint)
     err = np.abs(np.concatenate([ea, eb]))  # α and β (β/α: error_stats)
     return FitResult(
         factors=factors,

@@ -55,12 +55,17 @@ def records_for_fit(records: list[dict], with_geometry: bool = False) -> list[di
     return out
 
 
-def error_stats(factors, fit_records: list[dict], geometry: Geometry | None = None) -> dict:
-    """Relative errors of the lumped α, β, β/α against FE records: max and RMS, and the count."""
+def error_stats(
+    factors, fit_records: list[dict], geometry: Geometry | None = None, joint: str = "bonded"
+) -> dict:
+    """Relative errors of the lumped α, β, β/α against FE records: max and RMS, and the count.
+
+    ``joint``: the records' FE joint, "bonded" or "sliding" (:func:`isj.lumped.model.equations`).
+    """
     designs = {k: np.array([r["design"][k] for r in fit_records]) for k in fit_records[0]["design"]}
     a_fe = np.array([r["alpha_per_pa"] for r in fit_records])
     b_fe = np.array([r["beta_per_pa"] for r in fit_records])
-    a, b = equations(moduli_arrays(designs), np.asarray(factors), record_lever(fit_records, geometry))
+    a, b = equations(moduli_arrays(designs), np.asarray(factors), record_lever(fit_records, geometry), joint)
     out = {"n": len(fit_records)}
     for name, lum, fe in (("alpha", a, a_fe), ("beta", b, b_fe), ("ratio", b / a, b_fe / a_fe)):
         e = lum / fe - 1
@@ -102,14 +107,15 @@ def calibrate(
     fit_rec = records_for_fit(records)
     train_rec, held_rec = fit_rec[: len(train)], fit_rec[len(train) :]
     geometry = Geometry(**settings["geometry"]) if "geometry" in settings else Geometry()
-    res = fit_factors(train_rec, geometry)
+    joint = settings_joint(settings)
+    res = fit_factors(train_rec, geometry, joint=joint)
     mesh_hashes = sorted({r["result"].get("mesh_hash", "") for r in records})
     return Calibration(
-        joint=settings_joint(settings),
+        joint=joint,
         factors={n: float(v) for n, v in zip(FACTOR_NAMES, res.factors, strict=True)},
         domain=space.to_dict(),
-        training=error_stats(res.factors, train_rec, geometry) | {"ipopt_iterations": res.iterations},
-        validation=error_stats(res.factors, held_rec, geometry) if held_rec else {},
+        training=error_stats(res.factors, train_rec, geometry, joint) | {"ipopt_iterations": res.iterations},
+        validation=error_stats(res.factors, held_rec, geometry, joint) if held_rec else {},
         fe_settings={k: v for k, v in settings.items()} | {"mesh_hash": mesh_hashes},
         provenance={
             "samples": samples,
@@ -196,20 +202,21 @@ def geometry_calibration_from_records(
     fit_rec = records_for_fit(records, with_geometry=True)
     n1, n2 = n_train, n_train + n_held
     train_rec, held_rec, corner_rec = fit_rec[:n1], fit_rec[n1:n2], fit_rec[n2:]
-    res = fit_factors(train_rec, x0=geometry_fit_start())
+    joint = settings_joint(settings)
+    res = fit_factors(train_rec, x0=geometry_fit_start(), joint=joint)
     mesh_hashes = sorted({r["result"].get("mesh_hash", "") for r in records[:n1]})
     corner_errors = {}
     for (label,), rec in zip(corners, corner_rec, strict=True):
-        e = error_stats(res.factors, [rec])
+        e = error_stats(res.factors, [rec], joint=joint)
         corner_errors[label] = {"alpha": e["max_alpha"], "beta": e["max_beta"]}
     fe = {k: v for k, v in settings.items()} | {"n_meshes": len(mesh_hashes)}
     return Calibration(
-        joint=settings_joint(settings),
+        joint=joint,
         factors={n: float(v) for n, v in zip(FACTOR_NAMES, res.factors, strict=True)},
         domain=space.to_dict(),
         geometry_domain=geometry.to_dict(),
-        training=error_stats(res.factors, train_rec) | {"ipopt_iterations": res.iterations},
-        validation=error_stats(res.factors, held_rec) if held_rec else {},
+        training=error_stats(res.factors, train_rec, joint=joint) | {"ipopt_iterations": res.iterations},
+        validation=error_stats(res.factors, held_rec, joint=joint) if held_rec else {},
         corners=corner_errors,
         fe_settings=fe,
         provenance={

@@ -296,6 +296,7 @@ def ear_sweep(
         calibration.factor_array(),
         ear_materials=ear_materials,
         rigid_joint=rigid_joint,
+        joint=calibration.joint,
         damping=damping,
         drum_modes=drum_modes or None,
         **region_moduli(materials or Materials()),

@@ -256,7 +256,9 @@ class LumpedModel:
         LumpedStaticResult : ``isj.lumped.model.static_response`` with the calibrated factors
         """
         p = _pressure(pressure_pa)
-        r = static_response(self.factors, self.geometry, p, **self._moduli(materials, moduli))
+        r = static_response(
+            self.factors, self.geometry, p, joint=self.joint, **self._moduli(materials, moduli)
+        )
         return LumpedStaticResult(alpha_rad=r.alpha_rad, beta_rad=r.beta_rad, pressure_pa=p)
 
     # ---- the chain's dynamics --------------------------------------------------------------
@@ -365,6 +367,7 @@ class LumpedModel:
             eardrum=eardrum,
             masses=masses,
             rigid_joint=rigid_joint,
+            joint=self.joint,
             body=body,
             rayleigh_a_per_s=rayleigh_a_per_s,
             rayleigh_b_s=rayleigh_b_s,

@@ -183,7 +183,7 @@ def _springs(
     lever = Lever.from_geometry(g)
     fac = np.asarray(factors, dtype=float)
     f = dict(zip(FACTOR_NAMES, fac, strict=True))
-    a_pa, b_pa = equations(E, fac, lever)
+    a_pa, b_pa = equations(E, fac, lever, joint)
     shape = np.broadcast_shapes(*(np.shape(v) for v in E.values()))
     nd = int(np.prod(shape))
     E = {k: np.broadcast_to(v, shape).reshape(nd) for k, v in E.items()}
@@ -228,7 +228,12 @@ class JointCoupling:
 
 
 def joint_coupling(
-    factors, geometry: Geometry | None = None, materials: Materials | None = None, **moduli
+    factors,
+    geometry: Geometry | None = None,
+    materials: Materials | None = None,
+    *,
+    joint: str = "bonded",
+    **moduli,
 ) -> JointCoupling:
     """The chain's joint and pedicle, massless and condensed onto (α, β), for models that embed the joint.
 
@@ -245,6 +250,8 @@ def joint_coupling(
     ----------
     factors : calibrated static factors
     geometry, materials : dimensions (m); Poisson's ratio from ``materials``
+    joint : "bonded" or "sliding", the joint the factors were calibrated on
+        (:func:`lumped.model.equations`; no shear here, so nothing else depends on it)
     **moduli : Young's moduli (Pa), floats or broadcastable arrays
 
     Returns
@@ -252,12 +259,12 @@ def joint_coupling(
     JointCoupling, arrays with leading axis n_design
     """
     g = geometry or Geometry()
-    return _coupling(factors, g, (materials or Materials()).nu, moduli_arrays(**moduli))
+    return _coupling(factors, g, (materials or Materials()).nu, moduli_arrays(**moduli), joint)
 
 
-def _coupling(factors, g: Geometry, nu: float, E: dict) -> JointCoupling:
+def _coupling(factors, g: Geometry, nu: float, E: dict, joint: str = "bonded") -> JointCoupling:
     """:func:`joint_coupling` on checked moduli arrays ``E`` (complex allowed: plain arithmetic)."""
-    st = _springs(factors, DEFAULT_SHEAR_FACTOR, g, nu, E)
+    st = _springs(factors, DEFAULT_SHEAR_FACTOR, g, nu, E, joint)
     lv = _levels(g)
     nd = st.k_joint.size
     K = np.zeros((nd, 5, 5), dtype=st.k_joint.dtype)

@@ -271,6 +271,7 @@ def ear_model(
     eardrum: EardrumParameters | None = None,
     masses: EarMasses | None = None,
     rigid_joint: bool = False,
+    joint: str = "bonded",
     body: str = "rigid",
     rayleigh_a_per_s=None,
     rayleigh_b_s=None,
@@ -294,6 +295,8 @@ def ear_model(
     masses : ossicle masses (kg) and radii of gyration (m), estimates (:class:`isj.ear.EarMasses`;
         its densities are not read: the drum's mass is ``eardrum``'s, the footplate is in ``stapes_kg``)
     rigid_joint : no α, β coordinates (a rigid incus–stapes connection)
+    joint : "bonded" or "sliding", the joint ``factors`` were calibrated on
+        (:func:`lumped.model.equations`)
     body : "rigid" (six dofs) or "rotation" (one rotation about the nominal axis)
     damping : :class:`isj.damping.Damping` or a preset name (default: the published loss factors,
         docs/dynamics.md §4.3)
@@ -340,8 +343,8 @@ def ear_model(
         Jb = np.concatenate([np.cross(e, x_b - p0), e])[:, None]
         names = ["th_axis"]
     nb = Jb.shape[1]
-    joint = not rigid_joint
-    if joint:
+    coupled = not rigid_joint
+    if coupled:
         names += ["alpha", "beta"]
     names.append("w")
     iw = len(names) - 1
@@ -357,17 +360,17 @@ def ear_model(
     head = np.asarray(g.stapes_head_m, dtype=float)
     jy, jz = np.asarray(g.joint_y_direction), np.asarray(g.joint_z_direction)
     z_j = (jg.z_gap + jg.z_plate) / 2
-    if joint:
+    if coupled:
         from .artifact import default_calibration
 
         if factors is None:
             factors = default_calibration().factor_array()
-        coupling = joint_coupling(factors, jg, **moduli)
-    nd = coupling.stiffness.shape[0] if joint else 1
+        coupling = joint_coupling(factors, jg, joint=joint, **moduli)
+    nd = coupling.stiffness.shape[0] if coupled else 1
     stapes_map = np.zeros((nd, 6, n))
     stapes_map[:, :3] = point_map(F, x_b)[0] @ body_map
     stapes_map[:, 3:] = body_map[3:]
-    if joint:  # the stapes moves by −d relative to the incus, d = motion @ (α, β) (per design)
+    if coupled:  # the stapes moves by −d relative to the incus, d = motion @ (α, β) (per design)
         jx = np.asarray(g.joint_x_direction, dtype=float)
         per_d = np.zeros((6, 2))  # stapes (u at F, θ) per unit d = (u_x at head + z_j ẑ, rotation)
         per_d[:3, 0] = -jx
@@ -412,7 +415,7 @@ def ear_model(
         "annular_ligament": on_stapes(k_ann),
     }
     K = sum(parts.values())
-    if joint:
+    if coupled:
         K = K.copy()
         K[:, ia : ia + 2, ia : ia + 2] += coupling.stiffness
     # the cochlea: R = Z_C A² along the piston direction, R/n at each annular spring
@@ -436,11 +439,11 @@ def ear_model(
     M = sum(masses.values())  # (nd, n, n)
 
     # ---- damping
-    if joint:
+    if coupled:
         nu = Materials().nu  # as joint_coupling's
 
         def coupling_stiffness(Ec):
-            return _coupling(factors, jg, nu, Ec).stiffness
+            return _coupling(factors, jg, nu, Ec, joint).stiffness
 
         for r, Kr in region_stiffness(coupling_stiffness, moduli_arrays(**moduli)).items():
             Kf = np.zeros((nd, n, n))
@@ -448,7 +451,7 @@ def ear_model(
             parts[r] = Kf
     E_visc, K_loss = damping_terms(dmp, parts, masses, dash)
     joint_terms = None
-    if joint:  # the joint's own share of K, E and K_loss, for the load-path analysis
+    if coupled:  # the joint's own share of K, E and K_loss, for the load-path analysis
         E_j, L_j = damping_terms(dmp, {r: parts[r] for r in parts if r in REGIONS})
         blk = (..., slice(ia, ia + 2), slice(ia, ia + 2))
         joint_terms = (coupling.stiffness, E_j[blk], L_j[blk])
@@ -465,9 +468,9 @@ def ear_model(
     C = np.zeros((nd, 4, n))
     C[:, 0] = d_umbo @ umbo_map
     C[:, 1] = nrm @ stapes_map[:, :3]
-    if joint:
+    if coupled:
         C[:, 2, ia], C[:, 3, ia + 1] = 1.0, 1.0
-    single = not joint or all(np.ndim(v) == 0 for v in moduli.values())
+    single = not coupled or all(np.ndim(v) == 0 for v in moduli.values())
     Mb = M
     Bb = np.broadcast_to(Bq, (nd, n, 1)).copy()
     if single:

@@ -26,13 +26,18 @@ comes from two paths in parallel plus a series term:
   with a free exponent gave 0.27) and to the stapes head (∝ E_stapes j_y j_x²);
 - the faces of the plate and the stapes head turning under the joint moment,
   ∝ 1/(E j_y j_x²). The plate's term is weighted by e^(−s) cos s with
-  s = f_s (10³ E_gap/E_plate)^¾: the plate bends under the pedicle's root on
+  s = f_s (10³ E_gap/E_plate)^n: the plate bends under the pedicle's root on
   the gap as on an elastic foundation, and the rotation that the point pair
   at ±0.4 w sees decays, and turns, as the foundation stiffens relative to the
-  plate (the e^(−s) cos s of a beam on an elastic foundation). Thin-plate
-  theory would give s ∝ (E_gap/E_plate)^¼; the plate is thick (60 µm over a
-  300 µm span) and the FE results ask for ¾ (a free exponent fitted 0.73).
-  Without this term the held-out α error was 6.9 % (max); with it, 2.8 %.
+  plate (the e^(−s) cos s of a beam on an elastic foundation). The exponent n
+  depends on the joint (:data:`PLATE_SUPPORT_EXPONENT`). Bonded, n = ¾: the gap
+  grips the plate's face in shear too, the thick plate (60 µm over a 300 µm
+  span) and the layer deform together, and the FE results ask for ¾ (a free
+  exponent fitted 0.73; without this term the held-out α error was 6.9 % (max),
+  with it 2.8 %). Sliding, n = ¼: the gap only pushes on the plate, which then
+  bends on it as a beam on an elastic foundation, whose characteristic length
+  (E I / k)^¼ gives s ∝ (E_gap/E_plate)^¼ (Hetényi 1946); refitted with ¼ on the
+  same FE designs, the held-out α error falls from 3.7 % to 3.1 % (docs/lumped.md §3.14).
 - load sharing between the two paths, w = k_gap k_cap / (k_gap + k_cap)² times
   f_share / (E_plate j_y j_x²): the plate carries the joint moment from the
   pedicle's root to two reactions in different places, the gap's under its
@@ -61,6 +66,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from isj.design import DEFAULT_PRESSURE_PA, Geometry, Materials
+from isj.errors import InvalidParameter
 
 #: Calibrated dimensionless factors, in the order of :func:`equations`' ``factors``.
 FACTOR_NAMES: tuple[str, ...] = (
@@ -80,8 +86,10 @@ FACTOR_NAMES: tuple[str, ...] = (
     "pedicle_face",
 )
 
-#: Exponent of E_gap/E_plate in the plate face's foundation argument s (see the module docstring).
-PLATE_SUPPORT_EXPONENT = 0.75
+#: Exponent of E_gap/E_plate in the plate face's foundation argument s, per joint (see the module
+#: docstring): ¾ fitted on the bonded joint, ¼ the beam on an elastic foundation's for the sliding
+#: face, which pushes on the plate without gripping it in shear.
+PLATE_SUPPORT_EXPONENT: dict[str, float] = {"bonded": 0.75, "sliding": 0.25}
 
 #: Geometric scaling of the terms (docs/lumped.md §3.13): powers of dimensionless ratios of a
 #: geometry's dimensions to the default geometry's (h plate, t gap, t_c capsule wall, b_x, b_y
@@ -92,7 +100,7 @@ PLATE_SUPPORT_EXPONENT = 0.75
 #: training designs (geometry and moduli varied together) and the slices, then rounded (the
 #: spread of the free values over subsets of the data in the comments). Empirical: the plate
 #: (60 µm on a 300 µm span over a soft gap) is neither thin nor thick, so plate theory's
-#: exponents do not hold (as for PLATE_SUPPORT_EXPONENT).
+#: exponents do not hold (as for PLATE_SUPPORT_EXPONENT's bonded value).
 GEOMETRY_EXPONENTS: dict[str, float] = {
     # the gap's support of the pedicle's root grows as the plate and the gap thin
     "foundation_plate": 3.0,  # (h0/h)^3 in F; free 2.7-3.0
@@ -196,7 +204,7 @@ class Lever:
         return cls(**{f: np.array([getattr(lv, f) for lv in levers]) for f in cls.__dataclass_fields__})
 
 
-def equations(E, factors, lever: Lever):
+def equations(E, factors, lever: Lever, joint: str = "bonded"):
     """α and β per pascal (rad/Pa) from moduli ``E`` (Pa) and the calibrated factors.
 
     Plain arithmetic only, so that ``E`` and ``factors`` may be floats, numpy
@@ -207,7 +215,11 @@ def equations(E, factors, lever: Lever):
     E : mapping with the keys of :data:`MODULI`
     factors : sequence of the factors in :data:`FACTOR_NAMES` order
     lever : geometric constants
+    joint : "bonded" or "sliding", the joint the factors were calibrated on (it sets
+        :data:`PLATE_SUPPORT_EXPONENT`)
     """
+    if joint not in PLATE_SUPPORT_EXPONENT:
+        raise InvalidParameter(f"joint = {joint!r}: must be one of {', '.join(PLATE_SUPPORT_EXPONENT)}")
     (f_beam, f_root, f_top, f_fdn, f_gap, f_cap, f_att_p, f_att_s, f_plate, f_stapes, f_support, f_share,
      f_rp, f_pf) = (factors[i] for i in range(len(FACTOR_NAMES)))  # fmt: skip
     exp, cos = _exp_cos(E["gap_e_pa"], factors[0])
@@ -225,7 +237,7 @@ def equations(E, factors, lever: Lever):
         + 1 / (f_att_p * lever.attachment * e_plate**0.75 * E["capsule_e_pa"] ** 0.25)
         + 1 / (f_att_s * lever.attachment * e_stapes)
     )
-    s = f_support * lever.support * (1e3 * e_gap / e_plate) ** PLATE_SUPPORT_EXPONENT
+    s = f_support * lever.support * (1e3 * e_gap / e_plate) ** PLATE_SUPPORT_EXPONENT[joint]
     sharing = k_gap * k_cap / (k_gap + k_cap) ** 2
     # the footprint's scaling is the plate face's under the root only: the load sharing is the
     # plate's deformation between the gap's and the capsule's reactions, over the joint's section
@@ -278,9 +290,14 @@ def moduli_arrays(designs=None, **moduli) -> dict[str, np.ndarray]:
 
 
 def static_response(
-    factors, geometry: Geometry | None = None, pressure_pa: float = DEFAULT_PRESSURE_PA, **moduli
+    factors,
+    geometry: Geometry | None = None,
+    pressure_pa: float = DEFAULT_PRESSURE_PA,
+    *,
+    joint: str = "bonded",
+    **moduli,
 ) -> StaticResponse:
-    """α and β (rad) for arrays of moduli (Pa), vectorised over designs."""
+    """α and β (rad) for arrays of moduli (Pa), vectorised over designs, for the factors' ``joint``."""
     lever = Lever.from_geometry(geometry or Geometry())
-    a, b = equations(moduli_arrays(**moduli), np.asarray(factors, dtype=float), lever)
+    a, b = equations(moduli_arrays(**moduli), np.asarray(factors, dtype=float), lever, joint)
     return StaticResponse(alpha_rad=a * pressure_pa, beta_rad=b * pressure_pa)

@@ -13,6 +13,7 @@ from isj.calibration.runner import design_key, run_designs
 from isj.fem import batch
 from isj.lumped.api import LumpedModel
 from isj.lumped.artifact import Calibration, CorruptCalibration, default_calibration, sliding_calibration
+from isj.lumped.model import MODULI
 
 from isj.cases import THESIS_CASES
 from isj.design import InvalidParameter, Materials
@@ -31,6 +32,18 @@ FE_CASES_URAD = {
 }
 
 COARSE = {"order": 1, "resolution": 0.35}
+
+#: The bonded calibration fitted like the sliding one (least squares on the same 128 Sobol' designs,
+#: seed 0, P2, resolution 1): lumped/data/default_calibration.json at 4211de0^ (format 3, shipped
+#: until the adaptive format-5 one replaced it; ``root_plate`` and ``pedicle_face`` absent, 0).
+LIKE_FOR_LIKE_BONDED = {
+    "pedicle_bending": 0.9818618869125215, "pedicle_root": 5.176428129244652,
+    "pedicle_top": 2.9633531293425284, "root_foundation": 0.06752188983383768,
+    "gap": 1.2332578064919701, "capsule": 0.45057074575182776, "attachment_plate": 0.07119442369789107,
+    "attachment_stapes": 0.2210446599043687, "plate_bulk": 6.799652456323045,
+    "stapes_bulk": 0.3397944443619824, "plate_support": 0.05207451161127774,
+    "load_sharing": 4.564466488602948,
+}  # fmt: skip
 
 
 @pytest.fixture
@@ -140,6 +153,10 @@ def test_lumped_model_joint_choice():
         LumpedModel(joint="glued")
 
 
+def _case_moduli() -> dict[str, np.ndarray]:
+    return {k: np.array([getattr(c.materials(), k) for c in THESIS_CASES]) for k in MODULI}
+
+
 def _lumped_cases(joint: str) -> tuple[np.ndarray, np.ndarray]:
     lm = LumpedModel.default(joint=joint)
     r = lm.static([{k: getattr(c.materials(), k) for k in ("pedicle_e_pa", "gap_e_pa", "capsule_e_pa",
@@ -165,21 +182,101 @@ def test_seven_cases_against_fe():
         assert np.all(np.abs(b / fe[:, k, 1] - 1) <= v["max_beta"] + 1e-3), (joint, b / fe[:, k, 1] - 1)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="c100: FE's α falls 1.0 % with sliding, the lumped α rises; the plate face's "
-    "foundation exponent is the bonded joint's 3/4 (docs/lumped.md 3.14: 1/4 gets all three right)",
-)
+def _fe_joint_change() -> tuple[np.ndarray, np.ndarray]:
+    """FE's α change bonded → sliding per case, and where it exceeds 0.5 % (c20, c100, j5c20)."""
+    fe = _fe_cases()
+    d_fe = fe[:, 1, 0] / fe[:, 0, 0] - 1
+    clear = np.abs(d_fe) > 0.005
+    assert clear.sum() == 3
+    return d_fe, clear
+
+
 def test_sliding_against_bonded_as_fe_says():
     """FE (docs/model.md §2.12): sliding moves α by −1.0 % to +1.5 %. Where it moves by more than
     0.5 % (c20 +0.9 %, c100 −1.0 %, j5c20 +1.5 %: more than either calibration's RMS α error), the
-    lumped α moves the same way."""
-    fe = _fe_cases()
-    d_fe = fe[:, 1, 0] / fe[:, 0, 0] - 1
-    d_lumped = _lumped_cases("sliding")[0] / _lumped_cases("bonded")[0] - 1
-    clear = np.abs(d_fe) > 0.005
-    assert clear.sum() == 3
+    lumped α moves the same way, the sliding calibration against the bonded one fitted alike (same
+    designs, least squares). With the bonded exponent ¾ on the plate face, c100 moved the wrong way
+    (+0.4 %); with the sliding face's ¼ all three are right (docs/lumped.md §3.14)."""
+    from isj.lumped.model import FACTOR_NAMES, static_response
+
+    d_fe, clear = _fe_joint_change()
+    bonded = [LIKE_FOR_LIKE_BONDED.get(n, 0.0) for n in FACTOR_NAMES]
+    a_bonded = static_response(bonded, **_case_moduli()).alpha_rad
+    d_lumped = _lumped_cases("sliding")[0] / a_bonded - 1
     assert np.all(np.sign(d_lumped[clear]) == np.sign(d_fe[clear])), (d_fe, d_lumped)
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="the shipped bonded calibration (format 5, fitted near-minimax with 40 corner designs) is "
+    "0.7-1.9 % low in alpha on the seven cases, more than c100's FE change (-1.0 %); docs/lumped.md 3.14",
+)
+def test_sliding_against_shipped_bonded_as_fe_says():
+    """The same against the shipped bonded calibration (the report's lumped columns)."""
+    d_fe, clear = _fe_joint_change()
+    d_lumped = _lumped_cases("sliding")[0] / _lumped_cases("bonded")[0] - 1
+    assert np.all(np.sign(d_lumped[clear]) == np.sign(d_fe[clear])), (d_fe, d_lumped)
+
+
+def test_sliding_alpha_within_0_65_percent_on_the_seven_cases():
+    """docs/lumped.md §3.14: with the sliding face's exponent the sliding calibration's α is within
+    0.65 % of FE in every one of the seven cases (FE's table has 4 digits: 0.05 % of room)."""
+    err = _lumped_cases("sliding")[0] / _fe_cases()[:, 1, 0] - 1
+    assert np.abs(err).max() <= 0.0065 + 5e-4, err
+
+
+#: α and β (rad/Pa) of the bonded equations before the exponent depended on the joint (9139807, where
+#: PLATE_SUPPORT_EXPONENT was the float 0.75), for :func:`test_bonded_equations_unchanged_bit_for_bit`'s
+#: factors and moduli, on the default geometry and on a thinner plate over a thicker gap.
+BONDED_BEFORE = {
+    "default": (
+        [2.806910823305579e-08, 2.010255817068342e-08, 1.6538894903837593e-08, 3.249176924239128e-08],
+        [8.935874476480009e-08, 1.6381794196284246e-06, 8.464661668677011e-07, 3.1845534022913384e-07],
+    ),
+    "thin_plate": (
+        [2.9347704472596568e-08, 2.1152047970310597e-08, 1.792500337751571e-08, 3.6756817704164556e-08],
+        [9.905148719772732e-08, 1.6992582445010891e-06, 9.199322010782038e-07, 3.513921312705671e-07],
+    ),
+}
+
+
+def test_bonded_equations_unchanged_bit_for_bit():
+    """The bonded equations give the bits they gave before the joint entered them (default joint and
+    joint="bonded"); the sliding ones differ from them by the plate face's term alone, evaluated here
+    on its own with s = f_s support (10³ E_gap/E_plate)^n, n = ¾ and ¼; β does not see the joint."""
+    from isj.lumped.model import FACTOR_NAMES, PLATE_SUPPORT_EXPONENT, Lever, equations, moduli_arrays
+
+    from isj.design import Geometry
+
+    assert PLATE_SUPPORT_EXPONENT == {"bonded": 0.75, "sliding": 0.25}
+    f = np.array([LIKE_FOR_LIKE_BONDED.get(n, 0.0) for n in FACTOR_NAMES])
+    f[FACTOR_NAMES.index("pedicle_face")], f[FACTOR_NAMES.index("root_plate")] = 0.3, 1.3
+    E = moduli_arrays(gap_e_pa=np.array([1e6, 4.3e7, 5e7, 2e7]), plate_e_pa=np.array([5e9, 4e8, 3e8, 1e9]),
+                      capsule_e_pa=np.array([3e8, 1.2e7, 1e7, 1e8]),
+                      pedicle_e_pa=np.array([2.7e10, 1e9, 5e9, 1e10]))  # fmt: skip
+    geometries = {
+        "default": Geometry(),
+        "thin_plate": Geometry().replace(plate_thickness_m=5e-5, gap_thickness_m=4e-5),
+    }
+    for name, g in geometries.items():
+        lv = Lever.from_geometry(g)
+        a, b = equations(E, f, lv)
+        assert (a.tolist(), b.tolist()) == BONDED_BEFORE[name]
+        ab, bb = equations(E, f, lv, "bonded")
+        np.testing.assert_array_equal(ab, a)
+        np.testing.assert_array_equal(bb, b)
+        a_s, b_s = equations(E, f, lv, "sliding")
+        np.testing.assert_array_equal(b_s, b)
+        r = 1e3 * E["gap_e_pa"] / E["plate_e_pa"]
+        face = {}
+        for n in (0.75, 0.25):
+            s = f[FACTOR_NAMES.index("plate_support")] * lv.support * r**n
+            face[n] = np.exp(-s) * np.cos(s)
+        scale = lv.force_per_pa * lv.joint_arm * lv.bulk * lv.plate_face * f[FACTOR_NAMES.index("plate_bulk")]
+        np.testing.assert_allclose(a_s - a, scale * (face[0.25] - face[0.75]) / E["plate_e_pa"], rtol=1e-9)
+        assert np.all(a_s != a)
+    with pytest.raises(InvalidParameter, match="joint = 'layer'"):
+        equations(E, f, Lever.from_geometry(Geometry()), "layer")
 
 
 def test_sliding_chain_drops_the_gap_shear():
@@ -200,7 +297,15 @@ def test_sliding_chain_drops_the_gap_shear():
     cap /= g.gap_thickness_m + 2 * g.capsule_reach_m
     np.testing.assert_allclose(st["sliding"].k_shear, cap, rtol=1e-13)
     np.testing.assert_allclose(st["bonded"].k_shear, gap + cap, rtol=1e-13)
-    np.testing.assert_array_equal(st["bonded"].k_joint, st["sliding"].k_joint)
+    # the joint's rotational spring follows each joint's static α (the plate face's exponent)
+    from isj.lumped.model import static_response
+
+    a = {j: static_response(f, g, joint=j, gap_e_pa=e_gap, capsule_e_pa=e_cap).alpha_rad for j in st}
+    np.testing.assert_allclose(
+        st["bonded"].k_joint / st["sliding"].k_joint, a["sliding"] / a["bonded"], rtol=1e-13
+    )
+    for name in ("c_root", "c_top", "beam"):
+        np.testing.assert_array_equal(getattr(st["bonded"], name), getattr(st["sliding"], name))
     with pytest.raises(InvalidParameter, match="joint"):
         chain_stiffness(f, joint="layer")
     # LumpedModel threads its joint into the chain: the sliding chain is softer in shear, so its
@@ -213,6 +318,18 @@ def test_sliding_chain_drops_the_gap_shear():
     np.testing.assert_array_equal(f_sl, chain_model(sl.factors, sl.shear_factor, rayleigh_b_s=0.0,
                                                     joint="sliding").poles()[0])  # fmt: skip
     assert f_sl[1] < 0.8 * f_bo[1]
+
+
+def test_lumped_ear_takes_the_calibrations_joint():
+    """LumpedModel.ear passes its joint on: the ear's condensed joint is the sliding equations' coupling,
+    not the bonded form's with the same factors (the exponent of the plate face differs)."""
+    from isj.lumped.dynamics import joint_coupling
+
+    sl = LumpedModel.default(joint="sliding")
+    k_ear = sl.ear().joint[0]
+    k = {j: joint_coupling(sl.factors, sl.geometry, joint=j).stiffness[0] for j in ("bonded", "sliding")}
+    np.testing.assert_array_equal(k_ear, k["sliding"])
+    assert not np.allclose(k["sliding"], k["bonded"], rtol=1e-6)
 
 
 # ---- the command line --------------------------------------------------------------------------
@@ -258,7 +375,7 @@ def test_held_out_errors_as_claimed(tmp_path):
     held = sample(DesignSpace.from_dict(cal.domain), cal.provenance["validation_samples"],
                   cal.provenance["seed"] + 1, method="lhs")[:3]  # fmt: skip
     recs = run_designs(held, batch.evaluate_design, settings, tmp_path, max_workers=0, progress=False)
-    e = error_stats(cal.factor_array(), records_for_fit(recs))
+    e = error_stats(cal.factor_array(), records_for_fit(recs), joint="sliding")
     assert e["max_alpha"] <= cal.validation["max_alpha"] + 1e-9
     assert e["max_beta"] <= cal.validation["max_beta"] + 1e-9
     # and they are not all trivially zero: the lumped model is an approximation
