@@ -185,6 +185,30 @@ def test_residual_norm_is_accurate_at_small_residuals(fe, rom):
             assert abs(ours - true) <= 1e-6 * true
 
 
+def test_representers_within_their_error_radius(fe):
+    """Every stored representer Q R_j (five solved, one derived from Σ θ̄_r X⁻¹A_r v = v) is X⁻¹ of its
+    term within its radius η_j, against an independent solver (SuperLU)."""
+    from isj.fem.rom.domain import DesignSpace
+    from isj.fem.rom.offline import REFINE_EVERY, Greedy
+
+    space = DesignSpace()
+    g = Greedy(fe, space)
+    for e in (space.center(), *space.corners()[[9, 22]]):
+        g.add_snapshot(e)
+    assert g._rep_calls < REFINE_EVERY + 1 and g.derive_rel > 0  # step 1 on: one of six derived
+    lu = spla.splu(g.X.tocsc())
+    for s in ("u", "a", "b"):
+        sp_ = g.spaces[s]
+        R, eta = sp_.rep.arrays()
+        Z = sp_.rep.Q.matrix @ R
+        terms = [sp_.rhs] + [A @ v for v in sp_.V for A in g.mats]  # the load, then six per basis vector
+        assert len(terms) == Z.shape[1]
+        for j, t in enumerate(terms):
+            d = Z[:, j] - lu.solve(t)
+            miss = np.sqrt(max(d @ (g.X @ d), 0.0))
+            assert miss <= eta[j] * (1 + 1e-6) + 1e-15 * np.sqrt(t @ lu.solve(t)), (s, j, miss, eta[j])
+
+
 def test_domain_is_the_shipped_calibrations():
     from isj.fem.rom.domain import CALIBRATION_DOMAIN_PA, RANGED
     from isj.lumped.artifact import default_calibration
