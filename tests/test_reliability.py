@@ -232,7 +232,7 @@ def test_report_with_another_stack_height_completes_and_a_failed_run_leaves_the_
     summary = run.run_report(other, out, verbosity=0)
     # every step that does not read the [ear] section comes from the cache
     assert summary["cached"] == ["model", "cases", "trends", "convergence", "calibration", "sweep", "sliding",
-                                 "guard", "uq"]
+                                 "guard", "uq", "geometry_trends"]
     after = _snapshot(out)
     assert after["data/model.json"] == before["data/model.json"]
     assert after["data/ear.json"] != before["data/ear.json"]
