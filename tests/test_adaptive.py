@@ -124,11 +124,13 @@ def test_adaptive_loop_recovers_known_factors():
     assert np.max(np.abs(a1 / a0 - 1)) < 1e-4 and np.max(np.abs(b1 / b0 - 1)) < 1e-4
 
 
-def test_adaptive_loop_stops_without_progress_and_keeps_the_best_round():
-    # an oracle the model cannot follow (α of the known model, scaled by 1 + 0.2 u over the gap's
-    # log-range): no factors reach 1 %, the loop must stop on its patience and keep its best round
+def _gap_skewed():
+    """The known model's calibration, and an oracle 1 + 0.2 u³ high on α over the gap's log-range u."""
     truth = _truth()
-    oracle = LumpedOracle(truth, default_calibration().domain)
+    cal = Calibration(
+        factors=dict(zip(FACTOR_NAMES, truth, strict=True)), domain=default_calibration().domain
+    )
+    oracle = LumpedOracle(truth, cal.domain)
     lo, hi = np.log(1e6), np.log(50e6)
     base = oracle.per_pa
 
@@ -138,9 +140,13 @@ def test_adaptive_loop_stops_without_progress_and_keeps_the_best_round():
         return a * (1 + 0.2 * u**3), b
 
     oracle.per_pa = skewed
-    cal = Calibration(
-        factors=dict(zip(FACTOR_NAMES, truth, strict=True)), domain=default_calibration().domain
-    )
+    return truth, cal, oracle
+
+
+def test_adaptive_loop_stops_without_progress_and_keeps_the_best_round():
+    # an oracle the model cannot follow (α of the known model, scaled by 1 + 0.2 u over the gap's
+    # log-range): no factors reach 1 %, the loop must stop on its patience and keep its best round
+    truth, cal, oracle = _gap_skewed()
     records = oracle.records(sample(DesignSpace.from_dict(cal.domain), 32, seed=0))
     res = adaptive_fit(
         cal, records, oracle, oracle.records, tolerance=0.01, n_dense=256, per_round=4, max_rounds=6,
@@ -180,26 +186,14 @@ def test_region_map_marks_every_design_over_the_tolerance():
     # error passes 3 % at u = 0.53 (certified: the bound is 1e-6)
     from isj.calibration.region import build_region, in_region
 
-    truth = _truth()
-    cal = Calibration(
-        factors=dict(zip(FACTOR_NAMES, truth, strict=True)), domain=default_calibration().domain
-    )
-    oracle = LumpedOracle(truth, cal.domain)
-    lo, hi = np.log(1e6), np.log(50e6)
-    base = oracle.per_pa
-
-    def skewed(designs):
-        a, b = base(designs)
-        u = (np.log(np.asarray(designs["gap_e_pa"], dtype=float)) - lo) / (hi - lo)
-        return a * (1 + 0.2 * u**3), b
-
-    oracle.per_pa = skewed
+    truth, cal, oracle = _gap_skewed()
     region = build_region(cal, oracle, cells=6, n_sample=2**14, seed=0)
     art = Calibration.from_dict(json.loads(dataclasses.replace(cal, region=region).to_json()))
     assert art.region == region
     # an independent sample: every design over 3 % is outside; designs well inside are inside
     fresh = sample(DesignSpace.from_dict(cal.domain), 4096, seed=7)
     cols = {k: np.array([d[k] for d in fresh]) for k in fresh[0]}
+    lo, hi = np.log(1e6), np.log(50e6)  # the gap's range, as in _gap_skewed
     u = (np.log(cols["gap_e_pa"]) - lo) / (hi - lo)
     err = 1 / (1 + 0.2 * u**3) - 1  # lumped / oracle − 1 on α (β exact)
     inside = in_region(art.region, art.domain, cols)
