@@ -35,6 +35,9 @@ MODULI_SETS = {
 }
 
 N_VALUES = 5
+
+#: The calibration's geometry_scaling, set by main (the lumped values of a calibration's geometry).
+SCALING: dict = {}
 RESULT = Path(__file__).parent / "results" / "geometry_slices.json"
 
 
@@ -59,7 +62,7 @@ def lumped(factors, moduli: dict, dims: dict) -> tuple[float, float]:
         k: getattr(Materials(), k)
         for k in ("pedicle_e_pa", "gap_e_pa", "capsule_e_pa", "plate_e_pa", "stapes_e_pa", "incus_e_pa")
     }
-    r = static_response(factors, Geometry(**dims), **{**full, **moduli})
+    r = static_response(factors, Geometry(**dims), scaling=SCALING, **{**full, **moduli})
     return float(r.alpha_rad), float(r.beta_rad)
 
 
@@ -76,6 +79,8 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     cal = Calibration.load(args.calibration) if args.calibration else default_calibration()
     factors = cal.factor_array()
+    SCALING.clear()
+    SCALING.update(cal.geometry_scaling)
     items = slice_items()
     base_items = [(label, m) for label, m in MODULI_SETS.items()]
     settings = fe_settings()

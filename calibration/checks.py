@@ -67,7 +67,12 @@ def lumped_static(
         keys = [k for k in designs[0] if k.endswith("_e_pa")] if designs else []
         moduli = {k: np.array([float(d[k]) for d in designs]) for k in keys}
     return static_response(
-        calibration.factor_array(), geometry, pressure_pa, joint=calibration.joint, **moduli
+        calibration.factor_array(),
+        geometry,
+        pressure_pa,
+        joint=calibration.joint,
+        scaling=calibration.geometry_scaling,
+        **moduli,
     )
 
 

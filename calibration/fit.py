@@ -13,7 +13,15 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from isj.lumped.model import FACTOR_NAMES, MODULI, Lever, equations, moduli_arrays
+from isj.lumped.model import (
+    FACTOR_NAMES,
+    MODULI,
+    SCALED_TERMS,
+    SCALING_DIMENSIONS,
+    Lever,
+    equations,
+    moduli_arrays,
+)
 
 from isj.design import Geometry
 from isj.errors import (
@@ -33,6 +41,16 @@ INITIAL_FACTORS = np.array([0.1 if n in ("plate_support", "pedicle_face") else 1
 NORM_SCALE = 0.03
 
 
+#: Weight of the ridge that pulls a fitted geometric exponent (``scaling_terms`` of
+#: :func:`fit_factors`) toward 0, i.e. toward the documented forms of Lever alone, in units of the
+#: objective ½ Σ r² (docs/lumped.md §3.16; chosen by the held-out error: 1e-2 and 3e-3 fit worse,
+#: 3e-4 no better).
+SCALING_RIDGE = 1e-3
+
+#: Bound on a fitted geometric exponent.
+SCALING_BOUND = 6.0
+
+
 @dataclass(frozen=True)
 class FitResult:
     factors: np.ndarray
@@ -40,6 +58,7 @@ class FitResult:
     max_rel_error: float
     iterations: int
     status: str
+    scaling: dict | None = None  # fitted geometry_scaling (term -> dimension -> exponent), if any
 
 
 def fe_arrays(records: list[dict]) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray]:
@@ -51,16 +70,46 @@ def fe_arrays(records: list[dict]) -> tuple[dict[str, np.ndarray], np.ndarray, n
     return moduli_arrays(designs), alpha, beta
 
 
-def record_lever(records: list[dict], geometry: Geometry | None = None) -> Lever:
+def record_geometries(records: list[dict], geometry: Geometry | None = None) -> list[Geometry] | None:
+    """Each record's own geometry (its ``"geometry"`` over ``geometry``), or None if none has one."""
+    base = geometry or Geometry()
+    if not any(r.get("geometry") for r in records):
+        return None
+    return [base.replace(**(r.get("geometry") or {})) for r in records]
+
+
+def record_lever(records: list[dict], geometry: Geometry | None = None, scaling: dict | None = None) -> Lever:
     """The load path's constants of the records: one geometry, or one per record.
 
     A record may carry its own ``"geometry"`` (fields of :class:`~isj.design.Geometry`, m,
     over ``geometry``); then every field of the lever is an array over the records.
+    ``scaling``: a calibration's ``geometry_scaling`` (:meth:`Lever.from_geometry`).
     """
-    base = geometry or Geometry()
-    if not any(r.get("geometry") for r in records):
-        return Lever.from_geometry(base)
-    return Lever.from_geometries([base.replace(**(r.get("geometry") or {})) for r in records])
+    geometries = record_geometries(records, geometry)
+    if geometries is None:
+        return Lever.from_geometry(geometry or Geometry(), scaling)
+    return Lever.from_geometries(geometries, scaling)
+
+
+def _log_ratios(geometries: list[Geometry]) -> np.ndarray:
+    """ln(d / d0) of :data:`SCALING_DIMENSIONS`, shape (n records, n dimensions)."""
+    d0 = Geometry()
+    ratios = [[getattr(g, d) / getattr(d0, d) for d in SCALING_DIMENSIONS] for g in geometries]
+    return np.log(np.array(ratios))
+
+
+def _scaled_casadi_lever(lever: Lever, log_ratios: np.ndarray, exponents, terms) -> Lever:
+    """``lever`` (CasADi fields) with each term's field times exp(log_ratios · its exponents)."""
+    import dataclasses
+
+    import casadi as ca
+
+    changes = {}
+    L = ca.DM(log_ratios)
+    for i, term in enumerate(terms):
+        field = SCALED_TERMS[term]
+        changes[field] = changes.get(field, getattr(lever, field)) * ca.exp(ca.mtimes(L, exponents[i, :].T))
+    return dataclasses.replace(lever, **changes)
 
 
 def _casadi_lever(lever: Lever, n: int) -> Lever:
@@ -93,6 +142,8 @@ def fit_factors(
     max_iter: int = 500,
     norm: float = 2,
     joint: str = "bonded",
+    scaling_terms: tuple[str, ...] = (),
+    scaling_ridge: float = SCALING_RIDGE,
 ) -> FitResult:
     """Calibrate the lumped factors on FE records (see :func:`fe_arrays`).
 
@@ -102,6 +153,12 @@ def fit_factors(
     r (r²/s² + 10⁻¹²)^((p − 2)/4), s = :data:`NORM_SCALE`, so that ½ Σ r'² = ½ s^(2−p) Σ |r|^p,
     which for large p approaches the largest error (docs/lumped.md §3.15). ``joint`` is the FE
     records' joint, "bonded" or "sliding" (:func:`isj.lumped.model.equations`).
+
+    ``scaling_terms`` (records with their own geometries only): terms of
+    :data:`~isj.lumped.model.SCALED_TERMS` whose geometric exponents, one per dimension of
+    :data:`~isj.lumped.model.SCALING_DIMENSIONS`, are fitted with the factors, each pulled toward
+    0 (the forms of :class:`~isj.lumped.model.Lever` alone) by a ridge ``scaling_ridge`` · ½ c²;
+    the result's ``scaling`` holds them (docs/lumped.md §3.16).
     """
     import casadi as ca
 
@@ -110,26 +167,42 @@ def fit_factors(
     lever = record_lever(records, geometry)
     E, alpha_fe, beta_fe = fe_arrays(records)
     n = len(FACTOR_NAMES)
+    terms = tuple(scaling_terms)
+    geometries = record_geometries(records, geometry)
+    if terms and geometries is None:
+        raise InvalidParameter("scaling_terms: the records must carry their own geometries")
+    unknown = [t for t in terms if t not in SCALED_TERMS]
+    if unknown:
+        raise InvalidParameter(f"scaling_terms: unknown term(s) {', '.join(unknown)}")
+    nd = len(SCALING_DIMENSIONS)
     logf = ca.SX.sym("log_factors", n)
+    C = ca.SX.sym("exponents", len(terms), nd)
     f = ca.exp(logf)
     Edm = {k: ca.DM(np.broadcast_to(v, alpha_fe.shape)) for k, v in E.items()}
-    a, b = equations(Edm, [f[i] for i in range(n)], _casadi_lever(lever, alpha_fe.size), joint)
+    clever = _casadi_lever(lever, alpha_fe.size)
+    if terms:
+        clever = _scaled_casadi_lever(clever, _log_ratios(geometries), C, terms)
+    a, b = equations(Edm, [f[i] for i in range(n)], clever, joint)
     r = ca.vertcat(a / ca.DM(alpha_fe) - 1, b / ca.DM(beta_fe) - 1)
     if norm != 2:
         r = ca.vertcat(r, (b / a) / ca.DM(beta_fe / alpha_fe) - 1)
         r = r * (r**2 / NORM_SCALE**2 + 1e-12) ** ((norm - 2) / 4)
-    J = ca.jacobian(r, logf)
+    x = ca.vertcat(logf, ca.vec(C))
+    J = ca.jacobian(r, x)
     obj = 0.5 * ca.dot(r, r)
-    # Gauss–Newton Hessian of the Lagrangian: JᵀJ (objective factor sigma)
+    gn = ca.mtimes(J.T, J)
+    if terms:
+        ridge = ca.DM(np.concatenate([np.zeros(n), np.full(len(terms) * nd, float(scaling_ridge))]))
+        obj = obj + 0.5 * ca.dot(ridge, x**2)
+        gn = gn + ca.diag(ridge)
+    # Gauss–Newton Hessian of the Lagrangian: JᵀJ plus the ridge (objective factor sigma)
     sigma = ca.SX.sym("sigma")
     lam = ca.SX.sym("lam", 0)
-    hess = ca.Function(
-        "nlp_hess_l", [logf, ca.SX.sym("p", 0), sigma, lam], [ca.triu(sigma * ca.mtimes(J.T, J))]
-    )
+    hess = ca.Function("nlp_hess_l", [x, ca.SX.sym("p", 0), sigma, lam], [ca.triu(sigma * gn)])
     solver = ca.nlpsol(
         "fit",
         "ipopt",
-        {"x": logf, "f": obj},
+        {"x": x, "f": obj},
         {
             "hess_lag": hess,
             "print_time": False,
@@ -145,11 +218,24 @@ def fit_factors(
         # cannot tell them apart; it stays at e^-25 (0) and the punch term carries both
         i = FACTOR_NAMES.index("root_plate")
         start[i] = lbx[i] = ubx[i] = -LOG_BOUND
+    ne = len(terms) * nd
+    start = np.concatenate([start, np.zeros(ne)])
+    lbx = np.concatenate([lbx, np.full(ne, -SCALING_BOUND)])
+    ubx = np.concatenate([ubx, np.full(ne, SCALING_BOUND)])
     sol = solver(x0=start, lbx=lbx, ubx=ubx)
     stats = solver.stats()
     if not stats.get("success", False):
         raise FitFailed(f"calibration fit failed: IPOPT {stats.get('return_status')}", dict(stats))
-    factors = np.exp(np.asarray(sol["x"]).ravel())
+    xs = np.asarray(sol["x"]).ravel()
+    factors = np.exp(xs[:n])
+    scaling = None
+    if terms:
+        # ca.vec stacks column-major: exponent (term i, dimension j) at n + j * len(terms) + i
+        c = xs[n:].reshape(nd, len(terms)).T
+        scaling = {
+            t: {d: float(c[i, j]) for j, d in enumerate(SCALING_DIMENSIONS)} for i, t in enumerate(terms)
+        }
+        lever = record_lever(records, geometry, scaling)
     ea, eb = relative_errors(factors, E, alpha_fe, beta_fe, lever, joint)
     err = np.abs(np.concatenate([ea, eb]))  # α and β (β/α: error_stats)
     return FitResult(
@@ -158,4 +244,5 @@ def fit_factors(
         max_rel_error=float(err.max()),
         iterations=int(stats.get("iter_count", -1)),
         status=str(stats.get("return_status")),
+        scaling=scaling,
     )

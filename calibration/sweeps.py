@@ -194,6 +194,7 @@ def chain_sweep(
         materials,
         damping=damping,
         joint=calibration.joint,
+        scaling=calibration.geometry_scaling,
         **region_moduli(materials),
     )
     poles_hz, zeta = model.poles()

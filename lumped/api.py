@@ -257,7 +257,12 @@ class LumpedModel:
         """
         p = _pressure(pressure_pa)
         r = static_response(
-            self.factors, self.geometry, p, joint=self.joint, **self._moduli(materials, moduli)
+            self.factors,
+            self.geometry,
+            p,
+            joint=self.joint,
+            scaling=self.calibration.geometry_scaling,
+            **self._moduli(materials, moduli),
         )
         return LumpedStaticResult(alpha_rad=r.alpha_rad, beta_rad=r.beta_rad, pressure_pa=p)
 
@@ -287,6 +292,7 @@ class LumpedModel:
             self.geometry,
             mat,
             joint=self.joint,
+            scaling=self.calibration.geometry_scaling,
             rayleigh_a_per_s=rayleigh_a_per_s,
             rayleigh_b_s=rayleigh_b_s,
             loss_factor=loss_factor,

@@ -17,9 +17,11 @@ import numpy as np
 
 from isj.errors import CorruptCalibration  # noqa: F401 - re-exported, its old home
 
-from .model import FACTOR_NAMES
+from .model import FACTOR_NAMES, SCALED_TERMS, SCALING_DIMENSIONS
 
-FORMAT_VERSION = 5  # 2: plate_support; 3: load_sharing; 4: root_plate; 5: pedicle_face (lumped.model)
+#: 2: plate_support; 3: load_sharing; 4: root_plate; 5: pedicle_face; 6: geometry_scaling
+#: (lumped.model)
+FORMAT_VERSION = 6
 
 #: Factors a file of an older format lacks, with the value that makes the current
 #: equations those of that format exactly (on the default geometry, where every geometric
@@ -28,6 +30,7 @@ _ADDED_FACTORS = {
     2: {"load_sharing": 0.0, "root_plate": 0.0, "pedicle_face": 0.0},
     3: {"root_plate": 0.0, "pedicle_face": 0.0},
     4: {"pedicle_face": 0.0},
+    5: {},  # format 6 added the optional geometry_scaling block only
 }
 
 #: Joints a calibration may be fitted for (:data:`isj.fem.sliding.JOINTS` less the thin layer,
@@ -47,7 +50,9 @@ class Calibration:
     errors, :func:`calibration.pipeline.calibrate_dynamics`), optional; ``joint`` the FE
     model's incudostapedial joint the factors were fitted on (:data:`CALIBRATED_JOINTS`);
     ``region`` the map of where the factors hold their tolerance against the certified surrogate
-    (:mod:`calibration.region`, docs/lumped.md §3.15), optional.
+    (:mod:`calibration.region`, docs/lumped.md §3.15), optional; ``geometry_scaling`` the fitted
+    geometric exponents of the terms (term of :data:`~isj.lumped.model.SCALED_TERMS` → dimension →
+    exponent, :meth:`~isj.lumped.model.Lever.from_geometry`; docs/lumped.md §3.16), optional.
     """
 
     factors: dict[str, float]
@@ -62,6 +67,7 @@ class Calibration:
     corners: dict = field(default_factory=dict)
     joint: str = "bonded"
     region: dict = field(default_factory=dict)
+    geometry_scaling: dict = field(default_factory=dict)
 
     def factor_array(self) -> np.ndarray:
         return np.array([self.factors[n] for n in FACTOR_NAMES], dtype=float)
@@ -164,6 +170,7 @@ class Calibration:
             provenance=dict(sections["provenance"]),
             dynamics=dict(dynamics),
             region=_checked_region(sections["region"], domain, source),
+            geometry_scaling=_checked_scaling(d.get("geometry_scaling") or {}, source),
         )
 
     @classmethod
@@ -177,6 +184,26 @@ class Calibration:
         if not isinstance(d, dict):
             raise CorruptCalibration(f"calibration {str(path)!r}: not a JSON object")
         return cls.from_dict(d, source=f"calibration {str(path)!r}")
+
+
+def _checked_scaling(scaling, source: str) -> dict:
+    """The ``geometry_scaling`` block if well formed: known terms and dimensions, finite exponents."""
+
+    def number(c) -> bool:
+        return isinstance(c, int | float) and not isinstance(c, bool) and math.isfinite(c)
+
+    ok = isinstance(scaling, dict) and all(
+        t in SCALED_TERMS
+        and isinstance(e, dict)
+        and all(d in SCALING_DIMENSIONS and number(c) for d, c in e.items())
+        for t, e in scaling.items()
+    )
+    if not ok:
+        raise CorruptCalibration(
+            f"{source}: geometry_scaling must map terms of lumped.model.SCALED_TERMS to finite exponents "
+            "of lumped.model.SCALING_DIMENSIONS"
+        )
+    return {t: {d: float(c) for d, c in e.items()} for t, e in scaling.items()}
 
 
 def _checked_region(region: dict, domain: dict, source: str) -> dict:

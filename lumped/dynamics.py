@@ -148,6 +148,7 @@ def chain_stiffness(
     geometry: Geometry | None = None,
     materials: Materials | None = None,
     joint: str = "bonded",
+    scaling: dict | None = None,
     **moduli,
 ) -> ChainStiffness:
     """The chain's springs from the calibrated static factors, for arrays of moduli (Pa).
@@ -163,6 +164,7 @@ def chain_stiffness(
     shear_factor : joint shear factor f_shear (dimensionless, > 0)
     geometry, materials : dimensions (m); Poisson's ratio from ``materials``
     joint : "bonded" (the gap and the capsule in shear) or "sliding" (the capsule only)
+    scaling : the calibration's ``geometry_scaling`` (:meth:`lumped.model.Lever.from_geometry`)
     **moduli : Young's moduli (Pa), floats or broadcastable arrays
 
     Returns
@@ -172,15 +174,16 @@ def chain_stiffness(
     if not np.isfinite(shear_factor) or shear_factor <= 0:
         raise InvalidParameter(f"shear_factor = {shear_factor!r}: must be a finite number > 0")
     g = geometry or Geometry()
-    return _springs(factors, shear_factor, g, (materials or Materials()).nu, moduli_arrays(**moduli), joint)
+    E = moduli_arrays(**moduli)
+    return _springs(factors, shear_factor, g, (materials or Materials()).nu, E, joint, scaling)
 
 
 def _springs(
-    factors, shear_factor: float, g: Geometry, nu: float, E: dict, joint: str = "bonded"
+    factors, shear_factor: float, g: Geometry, nu: float, E: dict, joint: str = "bonded", scaling=None
 ) -> ChainStiffness:
     """:func:`chain_stiffness` on checked moduli arrays ``E``; plain arithmetic, so complex moduli
     (the complex step of :func:`isj.lumped.damping.region_stiffness`) give complex springs."""
-    lever = Lever.from_geometry(g)
+    lever = Lever.from_geometry(g, scaling)
     fac = np.asarray(factors, dtype=float)
     f = dict(zip(FACTOR_NAMES, fac, strict=True))
     a_pa, b_pa = equations(E, fac, lever, joint)
@@ -379,6 +382,7 @@ def chain_model(
     *,
     damping: Damping | str | None = None,
     joint: str = "bonded",
+    scaling: dict | None = None,
     **moduli,
 ) -> SecondOrderModel:
     """The eight-coordinate chain (module docstring) for one or many designs.
@@ -394,6 +398,7 @@ def chain_model(
     rayleigh_a_per_s, rayleigh_b_s, loss_factor : changes to ``damping`` (1/s, s, dimensionless):
         a number for every region or a mapping region → value; None leaves it
     joint : "bonded" or "sliding" (the joint's shear spring: gap and capsule, or capsule only)
+    scaling : the calibration's ``geometry_scaling`` (:meth:`lumped.model.Lever.from_geometry`)
     **moduli : Young's moduli (Pa), floats or broadcastable arrays (``lumped.model.MODULI``);
         floats only (or none): one design, no design axis
 
@@ -409,7 +414,7 @@ def chain_model(
     )
     nu = (materials or Materials()).nu
     E = moduli_arrays(**moduli)
-    K = _chain_stiffness_matrix(_springs(factors, shear_factor, g, nu, E, joint))
+    K = _chain_stiffness_matrix(_springs(factors, shear_factor, g, nu, E, joint, scaling))
     nd = K.shape[0]
     M = np.broadcast_to(chain_mass(g, materials), (nd, 8, 8)).copy()
     uniform = d.uniform_values(REGIONS)
@@ -418,7 +423,7 @@ def chain_model(
         Ed, K_loss = a * M + b * K, eta * K
     else:
         parts = region_stiffness(
-            lambda Ec: _chain_stiffness_matrix(_springs(factors, shear_factor, g, nu, Ec, joint)), E
+            lambda Ec: _chain_stiffness_matrix(_springs(factors, shear_factor, g, nu, Ec, joint, scaling)), E
         )
         masses = {
             r: np.broadcast_to(m, (nd, 8, 8)) for r, m in chain_mass(g, materials, per_region=True).items()

@@ -122,6 +122,42 @@ GEOMETRY_EXPONENTS: dict[str, float] = {
     "attachment_bond": 1.5,  # (bond/bond0)^1.5; free 1.5 (factors fixed)
 }
 
+#: Terms of :func:`equations` that a calibration may scale with the geometry (its
+#: ``geometry_scaling``, docs/lumped.md §3.16), each with the :class:`Lever` field it multiplies.
+#: A term's scale is a product of powers of the dimensions' ratios to the default geometry's,
+#: Π (d/d0)^c over :data:`SCALING_DIMENSIONS`, so it is 1 on the default geometry.
+SCALED_TERMS: dict[str, str] = {
+    # beta
+    "pedicle_bending": "beam",
+    "pedicle_root": "root",
+    "pedicle_top": "top",
+    "root_foundation": "foundation",
+    "root_plate": "root_plate",
+    # alpha
+    "gap": "gap",
+    "capsule": "capsule",
+    "attachment_plate": "attachment_plate_scale",
+    "attachment_stapes": "attachment_stapes_scale",
+    "plate_bulk": "plate_face",
+    "plate_support": "support",
+    "stapes_bulk": "stapes_face",
+    "pedicle_face": "pedicle_face_scale",
+    "load_sharing": "sharing",
+}
+
+#: Dimensions a calibration's ``geometry_scaling`` may use (:data:`SCALED_TERMS`): those the
+#: geometry calibration varies (calibration.doe.GEOMETRY_DOMAIN_M).
+SCALING_DIMENSIONS: tuple[str, ...] = (
+    "pedicle_x_m",
+    "pedicle_y_m",
+    "pedicle_length_m",
+    "gap_thickness_m",
+    "capsule_thickness_m",
+    "capsule_reach_m",
+    "capsule_bond_m",
+    "plate_thickness_m",
+)
+
 #: Moduli the lumped model reads (Pa), as in :class:`isj.design.Materials`.
 MODULI: tuple[str, ...] = (
     "pedicle_e_pa",
@@ -156,9 +192,36 @@ class Lever:
     )
     plate_face: float = 1.0  # on the plate face's e^(−s) cos s term
     support: float = 1.0  # on s
+    # a calibration's geometry_scaling (SCALED_TERMS) of the terms that share a field above
+    attachment_plate_scale: float = 1.0
+    attachment_stapes_scale: float = 1.0
+    stapes_face: float = 1.0
+    pedicle_face_scale: float = 1.0
+    sharing: float = 1.0
 
     @classmethod
-    def from_geometry(cls, g: Geometry) -> Lever:
+    def from_geometry(cls, g: Geometry, scaling: dict | None = None) -> Lever:
+        """The constants of ``g``; ``scaling`` a calibration's ``geometry_scaling``.
+
+        ``scaling`` maps a term of :data:`SCALED_TERMS` to exponents of :data:`SCALING_DIMENSIONS`:
+        the term's field is multiplied by Π (d/d0)^c (none: the forms above alone).
+        """
+        lever = cls._from_geometry(g)
+        if not scaling:
+            return lever
+        import dataclasses
+
+        changes = {}
+        for term, exponents in scaling.items():
+            field = SCALED_TERMS[term]
+            scale = 1.0
+            for dim, c in exponents.items():
+                scale *= (getattr(g, dim) / getattr(_DEFAULT, dim)) ** c
+            changes[field] = changes.get(field, getattr(lever, field)) * scale
+        return dataclasses.replace(lever, **changes)
+
+    @classmethod
+    def _from_geometry(cls, g: Geometry) -> Lever:
         z_load = g.z_incus + g.incus_length_m / 2
         bx, by, L = g.pedicle_x_m, g.pedicle_y_m, g.pedicle_length_m
         inertia = by * bx**3 / 12
@@ -198,9 +261,9 @@ class Lever:
         )
 
     @classmethod
-    def from_geometries(cls, geometries) -> Lever:
+    def from_geometries(cls, geometries, scaling: dict | None = None) -> Lever:
         """The constants of many geometries at once: one array (over the geometries) per field."""
-        levers = [cls.from_geometry(g) for g in geometries]
+        levers = [cls.from_geometry(g, scaling) for g in geometries]
         return cls(**{f: np.array([getattr(lv, f) for lv in levers]) for f in cls.__dataclass_fields__})
 
 
@@ -232,19 +295,22 @@ def equations(E, factors, lever: Lever, joint: str = "bonded"):
         + f_top * lever.top / E["incus_e_pa"]
     )
     k_gap = f_gap * lever.gap * e_gap
+    e_cap = E["capsule_e_pa"]
     k_cap = 1 / (
-        1 / (f_cap * lever.capsule * E["capsule_e_pa"])
-        + 1 / (f_att_p * lever.attachment * e_plate**0.75 * E["capsule_e_pa"] ** 0.25)
-        + 1 / (f_att_s * lever.attachment * e_stapes)
+        1 / (f_cap * lever.capsule * e_cap)
+        + 1 / (f_att_p * lever.attachment * lever.attachment_plate_scale * e_plate**0.75 * e_cap**0.25)
+        + 1 / (f_att_s * lever.attachment * lever.attachment_stapes_scale * e_stapes)
     )
     s = f_support * lever.support * (1e3 * e_gap / e_plate) ** PLATE_SUPPORT_EXPONENT[joint]
     sharing = k_gap * k_cap / (k_gap + k_cap) ** 2
     # the footprint's scaling is the plate face's under the root only: the load sharing is the
     # plate's deformation between the gap's and the capsule's reactions, over the joint's section
-    plate = (lever.plate_face * f_plate * exp(-s) * cos(s) + f_share * sharing) / e_plate
+    plate = (lever.plate_face * f_plate * exp(-s) * cos(s) + lever.sharing * f_share * sharing) / e_plate
     # the pedicle's root as part of the plate's face under the joint moment (pedicle_face; 0 in
     # calibrations before format 5, and + 0.0 leaves their α bit for bit)
-    bulk = lever.bulk * (plate + f_stapes / e_stapes + f_pf / E["pedicle_e_pa"])
+    bulk = lever.bulk * (
+        plate + lever.stapes_face * f_stapes / e_stapes + lever.pedicle_face_scale * f_pf / E["pedicle_e_pa"]
+    )
     alpha = P * lever.joint_arm * (1 / (k_gap + k_cap) + bulk)
     return alpha, beta
 
@@ -295,9 +361,13 @@ def static_response(
     pressure_pa: float = DEFAULT_PRESSURE_PA,
     *,
     joint: str = "bonded",
+    scaling: dict | None = None,
     **moduli,
 ) -> StaticResponse:
-    """α and β (rad) for arrays of moduli (Pa), vectorised over designs, for the factors' ``joint``."""
-    lever = Lever.from_geometry(geometry or Geometry())
+    """α and β (rad) for arrays of moduli (Pa), vectorised over designs, for the factors' ``joint``.
+
+    ``scaling``: the calibration's ``geometry_scaling`` (:meth:`Lever.from_geometry`).
+    """
+    lever = Lever.from_geometry(geometry or Geometry(), scaling)
     a, b = equations(moduli_arrays(**moduli), np.asarray(factors, dtype=float), lever, joint)
     return StaticResponse(alpha_rad=a * pressure_pa, beta_rad=b * pressure_pa)

@@ -75,8 +75,8 @@ def test_format_2_file_loads_as_the_model_without_load_sharing():
     d["format"] = 3
     with pytest.raises(CorruptCalibration, match="load_sharing"):
         Calibration.from_dict(d)
-    d["format"] = 6
-    with pytest.raises(CorruptCalibration, match="expected one of 2, 3, 4, 5"):
+    d["format"] = 7
+    with pytest.raises(CorruptCalibration, match="expected one of 2, 3, 4, 5, 6"):
         Calibration.from_dict(d)
 
 
