@@ -196,14 +196,22 @@ def compare_static(
     )
 
 
-def warn_outside_domain(calibration, designs: Mapping[str, np.ndarray]) -> int:
+def warn_outside_domain(calibration, designs: Mapping[str, np.ndarray], geometry=None) -> int:
     """Warn (:class:`~isj.errors.OutOfDomainWarning`) per modulus outside the calibrated domain.
+
+    With a ``geometry`` and a calibration over geometry, also once for the designs whose plate
+    support argument s exceeds the largest of its training designs (``max_plate_support``,
+    :func:`isj.lumped.model.plate_support_argument`): each modulus and dimension may lie inside
+    its range while the combination (a thin, soft plate under a stiff gap) is one the fit never
+    saw.
 
     Parameters
     ----------
     calibration : isj.lumped.artifact.Calibration
     designs : dict of arrays (or floats)
         Moduli (Pa) by name.
+    geometry : isj.design.Geometry, optional
+        Dimensions (m) of the designs.
 
     Returns
     -------
@@ -219,6 +227,26 @@ def warn_outside_domain(calibration, designs: Mapping[str, np.ndarray]) -> int:
             warnings.warn(
                 f"{k} outside the calibrated domain [{lo:g}, {hi:g}] Pa for {count} design(s): "
                 "the lumped model is extrapolating",
+                OutOfDomainWarning,
+                stacklevel=2,
+            )
+    s_max = calibration.training.get("max_plate_support")
+    if geometry is not None and s_max is not None:
+        from isj.lumped.model import Lever, moduli_arrays, plate_support_argument
+
+        E = moduli_arrays(**{k: v for k, v in designs.items() if k.endswith("_e_pa")})
+        lever = Lever.from_geometry(geometry, calibration.geometry_scaling)
+        f_s = calibration.factors["plate_support"]
+        s = np.atleast_1d(
+            plate_support_argument(f_s, lever, E["gap_e_pa"], E["plate_e_pa"], calibration.joint)
+        )
+        count = int(np.count_nonzero(s > s_max * (1 + 1e-9)))
+        if count:
+            n_out = max(n_out, count)
+            warnings.warn(
+                f"plate support argument s up to {float(s.max()):.3g}, beyond the {s_max:.3g} of the "
+                f"calibration's training designs, for {count} design(s) (a thin, soft plate under a "
+                "stiff gap): alpha is extrapolating; check with isj fem solve",
                 OutOfDomainWarning,
                 stacklevel=2,
             )

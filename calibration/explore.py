@@ -224,10 +224,10 @@ def explore(
         (:func:`isj.calibration.guard.run_guard`, ``tolerance``), and the spot checks go to the
         designs of largest certified lumped error instead of :func:`spot_check_picks`.
     """
-    n_out = warn_outside_domain(calibration, designs)
+    geometry = Geometry(**settings["geometry"]) if settings.get("geometry") else None
+    n_out = warn_outside_domain(calibration, designs, geometry)
     pressure = settings.get("pressure_pa", DEFAULT_PRESSURE_PA)
     t0 = time.perf_counter()
-    geometry = Geometry(**settings["geometry"]) if settings.get("geometry") else None
     lum = lumped_static(calibration, designs, geometry, pressure)
     t_lumped = time.perf_counter() - t0
     guard = None

@@ -12,7 +12,13 @@ from importlib import metadata
 
 import numpy as np
 from isj.lumped.artifact import CALIBRATED_JOINTS, Calibration
-from isj.lumped.model import FACTOR_NAMES, SCALED_TERMS, equations, moduli_arrays
+from isj.lumped.model import (
+    FACTOR_NAMES,
+    SCALED_TERMS,
+    equations,
+    moduli_arrays,
+    plate_support_argument,
+)
 
 from isj.design import Geometry, InvalidParameter
 
@@ -78,6 +84,16 @@ def error_stats(
         out[f"max_{name}"] = float(np.abs(e).max())
         out[f"rms_{name}"] = float(np.sqrt(np.mean(e**2)))
     return out
+
+
+def max_support(factors, fit_records: list[dict], scaling: dict | None, joint: str = "bonded") -> float:
+    """The largest plate-support argument s of the records (lumped.model.plate_support_argument)."""
+    E = moduli_arrays({k: np.array([r["design"][k] for r in fit_records]) for k in fit_records[0]["design"]})
+    lever = record_lever(fit_records, None, scaling)
+    f = dict(zip(FACTOR_NAMES, factors, strict=True))
+    return float(
+        np.max(plate_support_argument(f["plate_support"], lever, E["gap_e_pa"], E["plate_e_pa"], joint))
+    )
 
 
 def _versions() -> dict[str, str]:
@@ -229,7 +245,10 @@ def geometry_calibration_from_records(
         domain=space.to_dict(),
         geometry_domain=geometry.to_dict(),
         training=error_stats(res.factors, train_rec, joint=joint, scaling=scaling)
-        | {"ipopt_iterations": res.iterations},
+        | {
+            "ipopt_iterations": res.iterations,
+            "max_plate_support": max_support(res.factors, train_rec, scaling, joint),
+        },
         validation=error_stats(res.factors, held_rec, joint=joint, scaling=scaling) if held_rec else {},
         corners=corner_errors,
         geometry_scaling=scaling,

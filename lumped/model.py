@@ -301,7 +301,7 @@ def equations(E, factors, lever: Lever, joint: str = "bonded"):
         + 1 / (f_att_p * lever.attachment * lever.attachment_plate_scale * e_plate**0.75 * e_cap**0.25)
         + 1 / (f_att_s * lever.attachment * lever.attachment_stapes_scale * e_stapes)
     )
-    s = f_support * lever.support * (1e3 * e_gap / e_plate) ** PLATE_SUPPORT_EXPONENT[joint]
+    s = plate_support_argument(f_support, lever, e_gap, e_plate, joint)
     sharing = k_gap * k_cap / (k_gap + k_cap) ** 2
     # the footprint's scaling is the plate face's under the root only: the load sharing is the
     # plate's deformation between the gap's and the capsule's reactions, over the joint's section
@@ -313,6 +313,16 @@ def equations(E, factors, lever: Lever, joint: str = "bonded"):
     )
     alpha = P * lever.joint_arm * (1 / (k_gap + k_cap) + bulk)
     return alpha, beta
+
+
+def plate_support_argument(f_support, lever: Lever, e_gap, e_plate, joint: str = "bonded"):
+    """s of the plate face's weight e^(−s) cos s in :func:`equations` (dimensionless).
+
+    A calibration over geometry records the largest s of its training designs
+    (``training["max_plate_support"]``): beyond it the weight, which turns negative past π/2,
+    is extrapolated (a thin, soft plate under a stiff gap; docs/lumped.md §3.16).
+    """
+    return f_support * lever.support * (1e3 * e_gap / e_plate) ** PLATE_SUPPORT_EXPONENT[joint]
 
 
 def _exp_cos(*values):

@@ -115,6 +115,44 @@ def test_calibration_geometry_scaling_round_trips_and_a_bad_one_is_refused(tmp_p
             Calibration.from_dict(d)
 
 
+THIN_SOFT_PLATE = {"plate_thickness_m": 37e-6, "capsule_reach_m": 30e-6, "gap_thickness_m": 27e-6}
+
+
+def test_plate_support_beyond_the_training_designs_warns(capsys):
+    """Every dimension and modulus inside its range, but s (the plate face's foundation argument)
+    beyond the training designs' largest: a thin, soft plate under a stiff gap."""
+    from isj.calibration.checks import warn_outside_domain
+    from isj.lumped.model import plate_support_argument
+
+    cal = geometry_calibration()
+    s_max = cal.training["max_plate_support"]
+    g = Geometry(**THIN_SOFT_PLATE)
+    soft = {"gap_e_pa": 5e7, "capsule_e_pa": 3e8, "plate_e_pa": 3e8, "pedicle_e_pa": 1e9, "stapes_e_pa": 3e8}
+    lever = Lever.from_geometry(g, cal.geometry_scaling)
+    s = plate_support_argument(cal.factors["plate_support"], lever, 5e7, 3e8)
+    assert s > s_max and cal.outside_geometry(g) == {} and not any(cal.outside(soft).values())
+    with pytest.warns(OutOfDomainWarning, match="plate support argument"):
+        assert warn_outside_domain(cal, {k: np.array([v]) for k, v in soft.items()}, g) == 1
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # the default moduli on that geometry: inside
+        assert warn_outside_domain(cal, {"gap_e_pa": np.array([1e7])}, g) == 0
+    argv = ["lumped", "solve", *(f"--geometry={k}={v}" for k, v in THIN_SOFT_PLATE.items())]
+    argv += [
+        "--gap-e",
+        "5e7",
+        "--capsule-e",
+        "3e8",
+        "--plate-e",
+        "3e8",
+        "--pedicle-e",
+        "1e9",
+        "--stapes-e",
+        "3e8",
+    ]
+    assert main(argv) == 0
+    assert "plate support argument" in capsys.readouterr().err
+
+
 def test_shipped_geometry_calibration_covers_geometry_and_moduli():
     cal = geometry_calibration()
     assert set(cal.geometry_domain) == set(GEOMETRY_DOMAIN_M)

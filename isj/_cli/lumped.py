@@ -117,7 +117,7 @@ def solve(args) -> int:
         )
     args.nu = nu
     designs = c.moduli(c.materials(args))
-    warn_outside_domain(cal, designs)
+    warn_outside_domain(cal, designs, geometry)
     r = lumped_static(cal, designs, geometry, pressure_pa=args.pressure)
     out = {
         "alpha_rad": float(r.alpha_rad),
@@ -146,4 +146,3 @@ def solve(args) -> int:
     )
     print_region(out)
     return 0
-
