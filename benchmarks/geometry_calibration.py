@@ -20,10 +20,15 @@ import sys
 from pathlib import Path
 
 from isj.calibration.doe import DesignSpace, GeometrySpace, mixed_corners, sample_with_geometry
-from isj.calibration.pipeline import error_stats, geometry_calibration_from_records, records_for_fit
+from isj.calibration.pipeline import (
+    geometry_calibration_from_records,
+    records_for_fit,
+    support_limited_errors,
+)
 from isj.calibration.runner import run_geometry_designs
 from isj.fem.batch import evaluate_design, fe_settings
 from isj.lumped.artifact import default_calibration
+from isj.lumped.model import PLATE_SUPPORT_LIMIT
 
 from isj.caches import fe_cache_dir
 
@@ -45,11 +50,21 @@ def draw(sets) -> list[tuple[dict, dict]]:
 
 
 def line(name: str, e: dict) -> str:
-    return (
+    out = (
         f"{name:28s} n {e['n']:4d}  alpha max {100 * e['max_alpha']:6.2f} % RMS {100 * e['rms_alpha']:5.2f} %"
         f"  beta max {100 * e['max_beta']:6.2f} % RMS {100 * e['rms_beta']:5.2f} %"
         f"  beta/alpha max {100 * e['max_ratio']:6.2f} %"
     )
+    k = e.get("n_beyond_support_limit", 0)
+    if k and "max_alpha_beyond_support_limit" in e:
+        out += (
+            f"\n{'':28s} beyond the plate-support limit: {k} more, alpha max "
+            f"{100 * e['max_alpha_beyond_support_limit']:.2f} %, "
+            f"beta max {100 * e['max_beta_beyond_support_limit']:.2f} %"
+        )
+    elif k:
+        out += f"  ({k} beyond the plate-support limit, left out)"
+    return out
 
 
 def main(argv=None) -> int:
@@ -78,12 +93,16 @@ def main(argv=None) -> int:
     i = 0
     everything = [cal.validation]
     for name, ds in rest:
-        e = error_stats(cal.factor_array(), fit_rest[i : i + len(ds)], scaling=cal.geometry_scaling)
+        e = support_limited_errors(cal.factor_array(), fit_rest[i : i + len(ds)], cal.geometry_scaling)
         everything.append(e)
         print(line(name, e))
         i += len(ds)
     for label, e in cal.corners.items():
-        print(f"  corner {label:45s} alpha {100 * e['alpha']:7.2f} %  beta {100 * e['beta']:6.2f} %")
+        beyond = "  beyond the limit" if e["plate_support"] > PLATE_SUPPORT_LIMIT else ""
+        print(
+            f"  corner {label:45s} alpha {100 * e['alpha']:7.2f} %  beta {100 * e['beta']:6.2f} %"
+            f"  s {e['plate_support']:5.2f}{beyond}"
+        )
     if args.write:
         d = json.loads(cal.to_json())
         base = default_calibration()

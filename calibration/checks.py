@@ -200,10 +200,10 @@ def warn_outside_domain(calibration, designs: Mapping[str, np.ndarray], geometry
     """Warn (:class:`~isj.errors.OutOfDomainWarning`) per modulus outside the calibrated domain.
 
     With a ``geometry`` and a calibration over geometry, also once for the designs whose plate
-    support argument s exceeds the largest of its training designs (``max_plate_support``,
+    support argument s exceeds the calibration's ``plate_support_limit`` (π/2,
     :func:`isj.lumped.model.plate_support_argument`): each modulus and dimension may lie inside
-    its range while the combination (a thin, soft plate under a stiff gap) is one the fit never
-    saw.
+    its range while the combination (a thin, soft plate under a stiff gap) is one the
+    calibration does not cover.
 
     Parameters
     ----------
@@ -230,7 +230,7 @@ def warn_outside_domain(calibration, designs: Mapping[str, np.ndarray], geometry
                 OutOfDomainWarning,
                 stacklevel=2,
             )
-    s_max = calibration.training.get("max_plate_support")
+    s_max = calibration.training.get("plate_support_limit")
     if geometry is not None and s_max is not None:
         from isj.lumped.model import Lever, moduli_arrays, plate_support_argument
 
@@ -244,9 +244,9 @@ def warn_outside_domain(calibration, designs: Mapping[str, np.ndarray], geometry
         if count:
             n_out = max(n_out, count)
             warnings.warn(
-                f"plate support argument s up to {float(s.max()):.3g}, beyond the {s_max:.3g} of the "
-                f"calibration's training designs, for {count} design(s) (a thin, soft plate under a "
-                "stiff gap): alpha is extrapolating; check with isj fem solve",
+                f"plate support argument s up to {float(s.max()):.3g}, beyond the calibration's limit "
+                f"{s_max:.3g} (pi/2, where the plate face's weight changes sign) for {count} design(s): a "
+                "thin, soft plate under a stiff gap; alpha may be off by several % (isj fem solve checks)",
                 OutOfDomainWarning,
                 stacklevel=2,
             )

@@ -23,6 +23,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, fields
 
 import numpy as np
+from isj.lumped.artifact import GEOMETRY_CLEARANCE_M as _CLEARANCE_M
 
 from isj.design import InvalidParameter
 
@@ -225,10 +226,9 @@ GEOMETRY_DOMAIN_M: dict[str, Bounds] = {
     "plate_thickness_m": (36e-6, 84e-6),
 }
 
-#: Smallest clearance (m) the sampler keeps between the capsule's levels: reach − bond (its free
-#: strip beyond the gap) and plate thickness − reach. At 5 µm the meshes keep the default
-#: geometry's quality (the bound of the thin layers, isj.design.GEOMETRY_BOUNDS_M).
-GEOMETRY_CLEARANCE_M = 5e-6
+#: Smallest clearance (m) the sampler keeps between the capsule's levels (defined beside the
+#: calibration artifact, whose outside_geometry checks it too).
+GEOMETRY_CLEARANCE_M = _CLEARANCE_M
 
 
 @dataclass(frozen=True)

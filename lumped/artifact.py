@@ -33,6 +33,12 @@ _ADDED_FACTORS = {
     5: {},  # format 6 added the optional geometry_scaling block only
 }
 
+#: Smallest clearance (m) between the capsule's levels, reach − bond (its free strip beyond the
+#: gap) and plate thickness − reach, in the designs of a calibration over geometry
+#: (calibration.doe.sample_with_geometry): at 5 µm the meshes keep the default geometry's
+#: quality (the bound of the thin layers, isj.design.GEOMETRY_BOUNDS_M).
+GEOMETRY_CLEARANCE_M = 5e-6
+
 #: Joints a calibration may be fitted for (:data:`isj.fem.sliding.JOINTS` less the thin layer,
 #: whose shear modulus no calibration samples). A file without a ``joint`` is bonded: every
 #: calibration before the sliding joint (docs/lumped.md §3.14) was fitted on the bonded FE model.
@@ -113,6 +119,14 @@ class Calibration:
             lo, hi = box.get(k, (fitted[k], fitted[k]))
             if not (lo * (1 - 1e-9) <= v <= hi * (1 + 1e-9)):
                 out[k] = (float(v), lo, hi)
+        # the sampler keeps the capsule's levels GEOMETRY_CLEARANCE_M apart: a geometry closer
+        # than that lies inside the box but outside what the calibration was fitted on
+        if "capsule_reach_m" in box:
+            levels = (("capsule_bond_m", "capsule_reach_m"), ("capsule_reach_m", "plate_thickness_m"))
+            for lower, upper in levels:
+                gap = values[upper] - values[lower]
+                if gap < GEOMETRY_CLEARANCE_M * (1 - 1e-9):
+                    out[f"{upper} - {lower}"] = (float(gap), GEOMETRY_CLEARANCE_M, math.inf)
         return out
 
     def to_json(self) -> str:

@@ -61,6 +61,7 @@ at once) and builds CasADi expressions for the fit.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -90,6 +91,12 @@ FACTOR_NAMES: tuple[str, ...] = (
 #: docstring): ¾ fitted on the bonded joint, ¼ the beam on an elastic foundation's for the sliding
 #: face, which pushes on the plate without gripping it in shear.
 PLATE_SUPPORT_EXPONENT: dict[str, float] = {"bonded": 0.75, "sliding": 0.25}
+
+#: Largest plate-support argument s for which the geometry calibration is fitted and claimed: at
+#: π/2 the plate face's weight e^(−s) cos s changes sign. Past it (a thin, soft plate under a
+#: stiff gap, about 3 % of the geometry-and-moduli box) the FE point pair and the form part ways:
+#: held-out errors there reached 8 % where below it they stay under 3 % (docs/lumped.md §3.16).
+PLATE_SUPPORT_LIMIT = math.pi / 2
 
 #: Geometric scaling of the terms (docs/lumped.md §3.13): powers of dimensionless ratios of a
 #: geometry's dimensions to the default geometry's (h plate, t gap, t_c capsule wall, b_x, b_y
@@ -318,9 +325,8 @@ def equations(E, factors, lever: Lever, joint: str = "bonded"):
 def plate_support_argument(f_support, lever: Lever, e_gap, e_plate, joint: str = "bonded"):
     """s of the plate face's weight e^(−s) cos s in :func:`equations` (dimensionless).
 
-    A calibration over geometry records the largest s of its training designs
-    (``training["max_plate_support"]``): beyond it the weight, which turns negative past π/2,
-    is extrapolated (a thin, soft plate under a stiff gap; docs/lumped.md §3.16).
+    The geometry calibration holds only up to :data:`PLATE_SUPPORT_LIMIT` (its
+    ``training["plate_support_limit"]``; docs/lumped.md §3.16).
     """
     return f_support * lever.support * (1e3 * e_gap / e_plate) ** PLATE_SUPPORT_EXPONENT[joint]
 

@@ -120,12 +120,13 @@ THIN_SOFT_PLATE = {"plate_thickness_m": 37e-6, "capsule_reach_m": 30e-6, "gap_th
 
 def test_plate_support_beyond_the_training_designs_warns(capsys):
     """Every dimension and modulus inside its range, but s (the plate face's foundation argument)
-    beyond the training designs' largest: a thin, soft plate under a stiff gap."""
+    beyond the calibration's limit π/2: a thin, soft plate under a stiff gap."""
     from isj.calibration.checks import warn_outside_domain
     from isj.lumped.model import plate_support_argument
 
     cal = geometry_calibration()
-    s_max = cal.training["max_plate_support"]
+    s_max = cal.training["plate_support_limit"]
+    assert s_max == pytest.approx(np.pi / 2)
     g = Geometry(**THIN_SOFT_PLATE)
     soft = {"gap_e_pa": 5e7, "capsule_e_pa": 3e8, "plate_e_pa": 3e8, "pedicle_e_pa": 1e9, "stapes_e_pa": 3e8}
     lever = Lever.from_geometry(g, cal.geometry_scaling)
@@ -156,13 +157,19 @@ def test_plate_support_beyond_the_training_designs_warns(capsys):
 def test_shipped_geometry_calibration_covers_geometry_and_moduli():
     cal = geometry_calibration()
     assert set(cal.geometry_domain) == set(GEOMETRY_DOMAIN_M)
-    assert cal.validation["n"] >= 64
+    assert cal.validation["n"] + cal.validation["n_beyond_support_limit"] >= 64
     assert cal.corners  # the mixed corners are reported
     # the default geometry lies inside it; the default calibration holds for that one only
     assert cal.outside_geometry(Geometry()) == {}
     assert default_calibration().outside_geometry(Geometry()) == {}
     assert set(default_calibration().outside_geometry(Geometry(pedicle_x_m=60e-6))) == {"pedicle_x_m"}
     assert set(cal.outside_geometry(Geometry(pedicle_x_m=90e-6))) == {"pedicle_x_m"}
+    # inside the box, but closer than the sampler's clearance between the capsule's levels
+    assert set(cal.outside_geometry(Geometry(capsule_reach_m=24e-6))) == {"capsule_reach_m - capsule_bond_m"}
+    assert set(cal.outside_geometry(Geometry(capsule_reach_m=56e-6))) == {
+        "plate_thickness_m - capsule_reach_m"
+    }
+    assert cal.outside_geometry(Geometry(capsule_reach_m=25e-6)) == {}
 
 
 def test_lumped_model_takes_the_geometry_calibration_for_another_geometry():

@@ -18,8 +18,9 @@ def register(sub) -> None:
     p.add_argument(
         "--samples",
         type=c.int_option("--samples", 16, MAX_SAMPLES),
-        default=64,
-        help=f"training designs, in [16, {MAX_SAMPLES}] (ten factors; default 64)",
+        default=None,
+        help=f"training designs, in [16, {MAX_SAMPLES}] (default 64; with --geometry-domain 480: every "
+        "term's geometric exponents are fitted too)",
     )
     p.add_argument(
         "--validation",
@@ -126,6 +127,10 @@ def calibrate(args) -> int:
     c.check_model_size(None, args.order, args.resolution)
     c.check_scheduler(args.scheduler)
     settings = fe_settings(order=args.order, resolution=args.resolution, joint=args.joint)
+    if args.samples is None:
+        from isj.calibration.pipeline import GEOMETRY_SAMPLES
+
+        args.samples = GEOMETRY_SAMPLES if args.geometry_domain else 64
     cache = fe_cache_dir(args.cache)
     if args.adaptive:
         from isj.errors import UsageError
