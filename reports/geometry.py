@@ -13,6 +13,7 @@ point at the report's geometry.
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
 
@@ -136,11 +137,21 @@ def geometry_domain_lines(geo: dict, design_geometry: dict) -> list[str]:
         f"    beta/alpha {100 * v['max_ratio']:.1f} %; RMS {100 * v['rms_alpha']:.1f} / "
         f"{100 * v['rms_beta']:.1f} / {100 * v['rms_ratio']:.1f} %",
     ]
+    k = v.get("n_beyond_support_limit", 0)
+    if k:  # docs/lumped.md section 3.16: the claim holds below s = pi/2 (warned beyond)
+        lines += [
+            "  (below the plate-support limit s = pi/2; warned beyond:",
+            f"    {k} more held out, alpha {100 * v['max_alpha_beyond_support_limit']:.1f} %, "
+            f"beta {100 * v['max_beta_beyond_support_limit']:.1f} %)",
+        ]
     if geo["corners"]:
-        name, worst = max(geo["corners"].items(), key=lambda kv: max(kv[1].values()))
+        name, worst = max(geo["corners"].items(), key=lambda kv: max(kv[1]["alpha"], kv[1]["beta"]))
+        s = worst.get("plate_support")
+        where = "" if s is None else f" (s {s:.2f}{', beyond' if s > math.pi / 2 else ''})"
         lines += [
             f"  {len(geo['corners'])} mixed corners, the worst:",
-            f"    {name}: alpha {100 * worst['alpha']:.1f} %, beta {100 * worst['beta']:.1f} %",
+            f"    {name}:",
+            f"      alpha {100 * worst['alpha']:.1f} %, beta {100 * worst['beta']:.1f} %{where}",
         ]
     lines += ["", f"  {'dimension (um)':20} {'low':>7} {'high':>7} {'report':>7}"]
     for k, (lo, hi) in geo["domain_m"].items():
