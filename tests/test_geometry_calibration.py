@@ -361,3 +361,19 @@ def test_cli_explore_accepts_geometry_inside_and_warns_outside(capsys):
     assert inside["alpha_rad_range"][0] == pytest.approx(float(lm.static(gap_e_pa=20e6).alpha_rad), rel=1e-12)
     code, _, err = run(capsys, [*base, "--geometry", "pedicle_x_m=90e-6"])
     assert code == 0 and "pedicle_x_m" in err and "outside the calibrated geometry" in err
+    # inside the box, but a thin, soft plate under a stiff gap: beyond the plate-support limit
+    thin = [a for k, v in THIN_SOFT_PLATE.items() for a in ("--geometry", f"{k}={v}")]
+    stiff = [
+        "--gap-e",
+        "5e7",
+        "--plate-e",
+        "3e8:1e9",
+        "--n",
+        "2",
+        "--no-guard",
+        "--spot-checks",
+        "0",
+        "--json",
+    ]
+    code, _, err = run(capsys, ["explore", *thin, *stiff])
+    assert code == 0 and "plate support argument" in err and "outside the calibrated geometry" not in err
