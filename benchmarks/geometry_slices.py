@@ -35,9 +35,6 @@ MODULI_SETS = {
 }
 
 N_VALUES = 5
-
-#: The calibration's geometry_scaling, set by main (the lumped values of a calibration's geometry).
-SCALING: dict = {}
 RESULT = Path(__file__).parent / "results" / "geometry_slices.json"
 
 
@@ -56,13 +53,14 @@ def slice_items() -> list[tuple[str, float, str, dict, dict]]:
     return out
 
 
-def lumped(factors, moduli: dict, dims: dict) -> tuple[float, float]:
-    """Lumped α, β (rad) at the default pressure for one design at ``dims``."""
+def lumped(factors, moduli: dict, dims: dict, scaling: dict | None = None) -> tuple[float, float]:
+    """Lumped α, β (rad) at the default pressure for one design at ``dims`` (``scaling``: the
+    calibration's geometry_scaling)."""
     full = {
         k: getattr(Materials(), k)
         for k in ("pedicle_e_pa", "gap_e_pa", "capsule_e_pa", "plate_e_pa", "stapes_e_pa", "incus_e_pa")
     }
-    r = static_response(factors, Geometry(**dims), scaling=SCALING, **{**full, **moduli})
+    r = static_response(factors, Geometry(**dims), scaling=scaling, **{**full, **moduli})
     return float(r.alpha_rad), float(r.beta_rad)
 
 
@@ -79,8 +77,6 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     cal = Calibration.load(args.calibration) if args.calibration else default_calibration()
     factors = cal.factor_array()
-    SCALING.clear()
-    SCALING.update(cal.geometry_scaling)
     items = slice_items()
     base_items = [(label, m) for label, m in MODULI_SETS.items()]
     settings = fe_settings()
@@ -92,10 +88,10 @@ def main(argv=None) -> int:
     )  # fmt: skip
     fe = [(r["result"]["alpha_rad"], r["result"]["beta_rad"]) for r in recs]
     base_fe = dict(zip([lab for lab, _ in base_items], fe[len(items) :], strict=True))
-    base_lum = {lab: lumped(factors, m, {}) for lab, m in base_items}
+    base_lum = {lab: lumped(factors, m, {}, cal.geometry_scaling) for lab, m in base_items}
     rows = []
     for (name, v, label, moduli, dims), (a_fe, b_fe) in zip(items, fe, strict=False):
-        a_l, b_l = lumped(factors, moduli, dims)
+        a_l, b_l = lumped(factors, moduli, dims, cal.geometry_scaling)
         a0_fe, b0_fe = base_fe[label]
         a0_l, b0_l = base_lum[label]
         rows.append({

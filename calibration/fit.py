@@ -164,11 +164,16 @@ def fit_factors(
 
     if not (isinstance(norm, int | float) and math.isfinite(norm) and norm >= 2):
         raise InvalidParameter(f"norm = {norm!r}: must be a finite number >= 2")
-    lever = record_lever(records, geometry)
     E, alpha_fe, beta_fe = fe_arrays(records)
     n = len(FACTOR_NAMES)
     terms = tuple(scaling_terms)
     geometries = record_geometries(records, geometry)
+    # built once: the geometries are the costly part of a lever over hundreds of records
+    lever = (
+        Lever.from_geometry(geometry or Geometry())
+        if geometries is None
+        else Lever.from_geometries(geometries)
+    )
     if terms and geometries is None:
         raise InvalidParameter("scaling_terms: the records must carry their own geometries")
     unknown = [t for t in terms if t not in SCALED_TERMS]
@@ -235,7 +240,7 @@ def fit_factors(
         scaling = {
             t: {d: float(c[i, j]) for j, d in enumerate(SCALING_DIMENSIONS)} for i, t in enumerate(terms)
         }
-        lever = record_lever(records, geometry, scaling)
+        lever = Lever.from_geometries(geometries, scaling)
     ea, eb = relative_errors(factors, E, alpha_fe, beta_fe, lever, joint)
     err = np.abs(np.concatenate([ea, eb]))  # α and β (β/α: error_stats)
     return FitResult(

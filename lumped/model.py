@@ -94,8 +94,8 @@ PLATE_SUPPORT_EXPONENT: dict[str, float] = {"bonded": 0.75, "sliding": 0.25}
 
 #: Largest plate-support argument s for which the geometry calibration is fitted and claimed: at
 #: π/2 the plate face's weight e^(−s) cos s changes sign. Past it (a thin, soft plate under a
-#: stiff gap, about 3 % of the geometry-and-moduli box) the FE point pair and the form part ways:
-#: held-out errors there reached 8 % where below it they stay under 3 % (docs/lumped.md §3.16).
+#: stiff gap, 2.4 % of the valid geometry-and-moduli box) the FE point pair and the form part
+#: ways: held-out errors there reached 7.6 %, below it 2.7 % (docs/lumped.md §3.16).
 PLATE_SUPPORT_LIMIT = math.pi / 2
 
 #: Geometric scaling of the terms (docs/lumped.md §3.13): powers of dimensionless ratios of a
