@@ -105,7 +105,8 @@ def support_limited_errors(
     s = support_arguments(factors, fit_records, scaling, joint)
     inside = [r for r, v in zip(fit_records, s, strict=True) if v <= PLATE_SUPPORT_LIMIT]
     beyond = [r for r, v in zip(fit_records, s, strict=True) if v > PLATE_SUPPORT_LIMIT]
-    out = error_stats(factors, inside, joint=joint, scaling=scaling) | {"n_beyond_support_limit": len(beyond)}
+    stats = error_stats(factors, inside, joint=joint, scaling=scaling) if inside else {"n": 0}
+    out = stats | {"n_beyond_support_limit": len(beyond)}
     if beyond:
         e = error_stats(factors, beyond, joint=joint, scaling=scaling)
         out |= {f"{k}_beyond_support_limit": e[k] for k in ("max_alpha", "max_beta", "max_ratio")}
@@ -264,7 +265,7 @@ def geometry_calibration_from_records(
         )
         s = support_arguments(res.factors, train_rec, res.scaling, joint)
         below = [i for i in range(n1) if s[i] <= PLATE_SUPPORT_LIMIT]
-        if below == keep:
+        if below == keep or not below:  # none below: keep the last fit rather than fit nothing
             break
         keep = below
     scaling = res.scaling

@@ -184,19 +184,19 @@ def calibrate(args) -> int:
         f"calibrated on {t['n']} FE designs ({cal.joint} joint): max error "
         f"alpha {100 * t['max_alpha']:.2f} %, beta {100 * t['max_beta']:.2f} %"
     )
-    if v:
+    if v.get("n"):
         print(
             f"validated on {v['n']} unseen FE designs: max error alpha {100 * v['max_alpha']:.2f} %, "
             f"beta {100 * v['max_beta']:.2f} %, beta/alpha {100 * v['max_ratio']:.2f} % "
             f"(RMS {100 * v['rms_alpha']:.2f} / {100 * v['rms_beta']:.2f} / {100 * v['rms_ratio']:.2f} %)"
         )
-        if v.get("n_beyond_support_limit"):
-            print(
-                f"{v['n_beyond_support_limit']} more held-out designs lie beyond the plate-support limit "
-                f"s = pi/2 (a thin, soft plate under a stiff gap; warned when solved): max error alpha "
-                f"{100 * v['max_alpha_beyond_support_limit']:.2f} %, "
-                f"beta {100 * v['max_beta_beyond_support_limit']:.2f} %"
-            )
+    if v.get("n_beyond_support_limit"):
+        print(
+            f"{v['n_beyond_support_limit']} more held-out designs lie beyond the plate-support limit "
+            f"s = pi/2 (a thin, soft plate under a stiff gap; warned when solved): max error alpha "
+            f"{100 * v['max_alpha_beyond_support_limit']:.2f} %, "
+            f"beta {100 * v['max_beta_beyond_support_limit']:.2f} %"
+        )
     if cal.dynamics:
         dv = cal.dynamics.get("validation") or cal.dynamics["training"]
         print(
