@@ -377,3 +377,18 @@ def test_cli_explore_accepts_geometry_inside_and_warns_outside(capsys):
     ]
     code, _, err = run(capsys, ["explore", *thin, *stiff])
     assert code == 0 and "plate support argument" in err and "outside the calibrated geometry" not in err
+
+
+def test_support_limited_errors_counts_designs_beyond_the_limit_apart():
+    """A held-out set whose only design lies beyond the limit: n = 0 below it, its error beside."""
+    from isj.calibration.pipeline import support_limited_errors
+
+    cal = geometry_calibration()
+    soft = {"gap_e_pa": 5e7, "plate_e_pa": 3e8, "capsule_e_pa": 3e8, "pedicle_e_pa": 1e9, "stapes_e_pa": 3e8}
+    g = Geometry(**THIN_SOFT_PLATE)
+    a, b = equations(moduli_arrays(**soft), cal.factor_array(), Lever.from_geometry(g, cal.geometry_scaling))
+    rec = {"design": soft, "geometry": THIN_SOFT_PLATE, "alpha_per_pa": 2 * float(a), "beta_per_pa": float(b)}
+    out = support_limited_errors(cal.factor_array(), [rec], cal.geometry_scaling)
+    assert out["n"] == 0 and out["n_beyond_support_limit"] == 1
+    assert out["max_alpha_beyond_support_limit"] == pytest.approx(0.5, rel=1e-12)
+    assert out["max_beta_beyond_support_limit"] < 1e-12
