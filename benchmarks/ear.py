@@ -55,10 +55,16 @@ def sensitivity(base: EarGeometry) -> list[tuple[str, dict]]:
         ("ligaments x 0.5", base, m.replace(**{k: 0.5 * v for k, v in springs.items()})),
         ("ligaments x 2", base, m.replace(**{k: 2 * v for k, v in springs.items()})),
         ("ligaments x 0 (drum+cochlea only)", base, m.replace(**{k: 0.0 for k in springs})),
-        ("annular/cochlear springs x 2", base, m.replace(annular_out_of_plane_n_m=22.0,
-                                                         annular_in_plane_n_m=19.8)),
-        ("annular/cochlear springs x 0.5", base, m.replace(annular_out_of_plane_n_m=5.5,
-                                                           annular_in_plane_n_m=4.95)),
+        (
+            "annular/cochlear springs x 2",
+            base,
+            m.replace(annular_out_of_plane_n_m=22.0, annular_in_plane_n_m=19.8),
+        ),
+        (
+            "annular/cochlear springs x 0.5",
+            base,
+            m.replace(annular_out_of_plane_n_m=5.5, annular_in_plane_n_m=4.95),
+        ),
         (
             "long process 0.5 mm longer (lever)",
             base.replace(long_process_end_m=(2.0e-3, -0.8e-3, -0.845e-3)),
@@ -79,9 +85,14 @@ def sensitivity(base: EarGeometry) -> list[tuple[str, dict]]:
             ),
             m,
         ),
-        ("incudal bundles on the axis (dz=0)", base.replace(incudal_lateral_m=(4.3e-3, -1.2e-3, -2.5e-3),
-                                                            incudal_medial_m=(4.3e-3, -1.2e-3, -2.5e-3)), m),
-    ]  # fmt: skip
+        (
+            "incudal bundles on the axis (dz=0)",
+            base.replace(
+                incudal_lateral_m=(4.3e-3, -1.2e-3, -2.5e-3), incudal_medial_m=(4.3e-3, -1.2e-3, -2.5e-3)
+            ),
+            m,
+        ),
+    ]
     out = []
     cache: dict[EarGeometry, MiddleEarModel] = {}
     for label, g, mat in cases:
@@ -110,8 +121,10 @@ def main() -> int:
     )
     first = ear.solve()
     again = ear.solve()
-    print(f"first whole-ear solve (analysis included) {first.timings_s['total']:.2f} s; "
-          f"next solve {again.timings_s['total']:.2f} s {again.timings_s}")  # fmt: skip
+    print(
+        f"first whole-ear solve (analysis included) {first.timings_s['total']:.2f} s; "
+        f"next solve {again.timings_s['total']:.2f} s {again.timings_s}"
+    )
     rigid = MiddleEarModel()
     rigid.solve()
     rr = rigid.solve()
@@ -139,15 +152,21 @@ def main() -> int:
     ax = again.rotation_axis
     point = [round(v * 1e3, 3) for v in ax["point_m"]]
     direction = [round(v, 3) for v in ax["direction"]]
-    print(f"malleus-incus axis: point {point} mm, direction {direction}, "
-          f"rotation {ax['rotation_rad'] * 1e6:.2f} µrad/Pa")  # fmt: skip
+    print(
+        f"malleus-incus axis: point {point} mm, direction {direction}, "
+        f"rotation {ax['rotation_rad'] * 1e6:.2f} µrad/Pa"
+    )
     report["base"] = again.to_dict()
     report["rigid"] = rr.to_dict()
 
-    print(f"\n-- alpha, beta: in the ear (µrad per Pa, and at {SPL_100DB_PEAK_PA} Pa) vs the isolated model "
-          f"({DEFAULT_PRESSURE_PA} Pa on the incus face)")  # fmt: skip
-    print(f"{'case':6s} {'a/Pa':>8s} {'b/Pa':>8s} {'b/a':>6s} | {'a@100dB':>8s} {'b@100dB':>8s} | "
-          f"{'a iso':>7s} {'b iso':>7s} {'b/a':>6s} | stapes piston nm/Pa | solve s")  # fmt: skip
+    print(
+        f"\n-- alpha, beta: in the ear (µrad per Pa, and at {SPL_100DB_PEAK_PA} Pa) vs the isolated model "
+        f"({DEFAULT_PRESSURE_PA} Pa on the incus face)"
+    )
+    print(
+        f"{'case':6s} {'a/Pa':>8s} {'b/Pa':>8s} {'b/a':>6s} | {'a@100dB':>8s} {'b@100dB':>8s} | "
+        f"{'a iso':>7s} {'b iso':>7s} {'b/a':>6s} | stapes piston nm/Pa | solve s"
+    )
     report["cases"] = {}
     for case in THESIS_CASES:
         mat = case.materials()

@@ -65,12 +65,18 @@ def main() -> None:
         f"  reduced: {rom.info['level1_dofs']} dofs after the joint's condensation, "
         f"{rom.n_dofs} after the shells'"
     )
-    print(f"  reduction {t_build:.1f} s (parts {steps['parts']:.1f}, joint {steps['joint']:.1f}, "
-          f"shells {steps['shells']:.1f}, projection {steps['project']:.1f})")  # fmt: skip
-    print(f"  per frequency {1e3 * t_sweep / args.n:.2f} ms; {args.n} frequencies {t_sweep:.2f} s; "
-          f"with the reduction {t_build + t_sweep:.1f} s")  # fmt: skip
-    print(f"  direct harmonic solve {t_direct:.2f} s per frequency: {args.n} of them "
-          f"{args.n * t_direct:.0f} s, {ratio:.1f} x the reduced model's total")  # fmt: skip
+    print(
+        f"  reduction {t_build:.1f} s (parts {steps['parts']:.1f}, joint {steps['joint']:.1f}, "
+        f"shells {steps['shells']:.1f}, projection {steps['project']:.1f})"
+    )
+    print(
+        f"  per frequency {1e3 * t_sweep / args.n:.2f} ms; {args.n} frequencies {t_sweep:.2f} s; "
+        f"with the reduction {t_build + t_sweep:.1f} s"
+    )
+    print(
+        f"  direct harmonic solve {t_direct:.2f} s per frequency: {args.n} of them "
+        f"{args.n * t_direct:.0f} s, {ratio:.1f} x the reduced model's total"
+    )
     tail = "_mag_rel_error"
     verdict = "passed" if chk["passed"] else "FAILED"
     for ck in chk["checks"]:
@@ -80,8 +86,10 @@ def main() -> None:
             if k.endswith(tail)
         )
         print(f"  check {ck['freq_hz']:8.0f} Hz (relative magnitude / phase): {errs}")
-    print(f"  largest error against the direct solves: {chk['max_mag_rel_error']:.2e} in magnitude, "
-          f"{chk['max_phase_error_deg']:.2e} deg in phase ({verdict})")  # fmt: skip
+    print(
+        f"  largest error against the direct solves: {chk['max_mag_rel_error']:.2e} in magnitude, "
+        f"{chk['max_phase_error_deg']:.2e} deg in phase ({verdict})"
+    )
     out = {
         "n_dofs": model.n_dofs,
         "reduced_dofs": rom.n_dofs,
@@ -101,13 +109,17 @@ def main() -> None:
         conv = drum_mesh_convergence(joint, freqs, (0.25e-3, args.refined_drum_m), check_hz=[args.fmax_hz])
         f_ok = conv["agree_up_to_hz"]
         where = f"{f_ok:.0f} Hz" if f_ok is not None else "nowhere"
-        print(f"  drum meshes 0.25 mm ({conv['n_dofs'][0]} dofs) and {1e3 * args.refined_drum_m:g} mm "
-              f"({conv['n_dofs'][1]} dofs): H_V within 1 dB up to {where} "
-              f"(largest difference {np.abs(conv['diff_db']).max():.2f} dB; "
-              f"{conv['seconds'][1]:.0f} s)")  # fmt: skip
+        print(
+            f"  drum meshes 0.25 mm ({conv['n_dofs'][0]} dofs) and {1e3 * args.refined_drum_m:g} mm "
+            f"({conv['n_dofs'][1]} dofs): H_V within 1 dB up to {where} "
+            f"(largest difference {np.abs(conv['diff_db']).max():.2f} dB; "
+            f"{conv['seconds'][1]:.0f} s)"
+        )
         ck = conv["checks"][1]
-        print(f"  refined drum's reduced model at {args.fmax_hz:.0f} Hz against a direct solve: "
-              f"{ck['max_mag_rel_error']:.2e} in magnitude, {ck['max_phase_error_deg']:.2e} deg")  # fmt: skip
+        print(
+            f"  refined drum's reduced model at {args.fmax_hz:.0f} Hz against a direct solve: "
+            f"{ck['max_mag_rel_error']:.2e} in magnitude, {ck['max_phase_error_deg']:.2e} deg"
+        )
         out["convergence"] = {
             k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in conv.items() if k != "h_v"
         }

@@ -83,9 +83,17 @@ def main(argv=None) -> int:
     recs = run_geometry_designs(items, evaluate_design, settings, fe_cache_dir(), max_workers=args.workers)
     n1, n3 = len(train), len(train) + len(held) + len(corners)
     cal = geometry_calibration_from_records(
-        recs[:n3], n1, len(held), [c[0] for c in corners], DesignSpace(), GeometrySpace(), settings,
-        n1, len(held), train_sets[0][0],
-    )  # fmt: skip
+        recs[:n3],
+        n1,
+        len(held),
+        [c[0] for c in corners],
+        DesignSpace(),
+        GeometrySpace(),
+        settings,
+        n1,
+        len(held),
+        train_sets[0][0],
+    )
     fit_rest = records_for_fit(recs[n3:], with_geometry=True)
     print(f"training {args.train}: IPOPT {cal.training['ipopt_iterations']} iterations")
     print(line("training", cal.training))

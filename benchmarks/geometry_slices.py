@@ -84,8 +84,11 @@ def main(argv=None) -> int:
         settings["fem_code"] = args.fem_code
     recs = run_geometry_designs(
         [(m, d) for *_, m, d in items] + [(m, {}) for _, m in base_items],
-        evaluate_design, settings, fe_cache_dir(), max_workers=args.workers,
-    )  # fmt: skip
+        evaluate_design,
+        settings,
+        fe_cache_dir(),
+        max_workers=args.workers,
+    )
     fe = [(r["result"]["alpha_rad"], r["result"]["beta_rad"]) for r in recs]
     base_fe = dict(zip([lab for lab, _ in base_items], fe[len(items) :], strict=True))
     base_lum = {lab: lumped(factors, m, {}, cal.geometry_scaling) for lab, m in base_items}
@@ -94,26 +97,41 @@ def main(argv=None) -> int:
         a_l, b_l = lumped(factors, moduli, dims, cal.geometry_scaling)
         a0_fe, b0_fe = base_fe[label]
         a0_l, b0_l = base_lum[label]
-        rows.append({
-            "dimension": name, "value_m": v, "moduli": label,
-            "fe_alpha_rad": a_fe, "fe_beta_rad": b_fe, "lumped_alpha_rad": a_l, "lumped_beta_rad": b_l,
-            "fe_alpha_rel_default": a_fe / a0_fe, "fe_beta_rel_default": b_fe / b0_fe,
-            "alpha_error": a_l / a_fe - 1, "beta_error": b_l / b_fe - 1,
-            "alpha_scaling_error": (a_l / a0_l) / (a_fe / a0_fe) - 1,
-            "beta_scaling_error": (b_l / b0_l) / (b_fe / b0_fe) - 1,
-        })  # fmt: skip
+        rows.append(
+            {
+                "dimension": name,
+                "value_m": v,
+                "moduli": label,
+                "fe_alpha_rad": a_fe,
+                "fe_beta_rad": b_fe,
+                "lumped_alpha_rad": a_l,
+                "lumped_beta_rad": b_l,
+                "fe_alpha_rel_default": a_fe / a0_fe,
+                "fe_beta_rel_default": b_fe / b0_fe,
+                "alpha_error": a_l / a_fe - 1,
+                "beta_error": b_l / b_fe - 1,
+                "alpha_scaling_error": (a_l / a0_l) / (a_fe / a0_fe) - 1,
+                "beta_scaling_error": (b_l / b0_l) / (b_fe / b0_fe) - 1,
+            }
+        )
     print(f"calibration: {args.calibration or 'shipped'}; FE P2, resolution 1")
-    print(f"{'dimension':20s} {'um':>6s} {'moduli':12s} {'FE a/a0':>8s} {'FE b/b0':>8s} "
-          f"{'err a':>7s} {'err b':>7s} {'scal a':>7s} {'scal b':>7s}")  # fmt: skip
+    print(
+        f"{'dimension':20s} {'um':>6s} {'moduli':12s} {'FE a/a0':>8s} {'FE b/b0':>8s} "
+        f"{'err a':>7s} {'err b':>7s} {'scal a':>7s} {'scal b':>7s}"
+    )
     for r in rows:
-        print(f"{r['dimension']:20s} {1e6 * r['value_m']:6.1f} {r['moduli']:12s} "
-              f"{r['fe_alpha_rel_default']:8.3f} {r['fe_beta_rel_default']:8.3f} "
-              f"{100 * r['alpha_error']:6.2f}% {100 * r['beta_error']:6.2f}% "
-              f"{100 * r['alpha_scaling_error']:6.2f}% {100 * r['beta_scaling_error']:6.2f}%")  # fmt: skip
+        print(
+            f"{r['dimension']:20s} {1e6 * r['value_m']:6.1f} {r['moduli']:12s} "
+            f"{r['fe_alpha_rel_default']:8.3f} {r['fe_beta_rel_default']:8.3f} "
+            f"{100 * r['alpha_error']:6.2f}% {100 * r['beta_error']:6.2f}% "
+            f"{100 * r['alpha_scaling_error']:6.2f}% {100 * r['beta_scaling_error']:6.2f}%"
+        )
     ea = np.array([r["alpha_error"] for r in rows])
     eb = np.array([r["beta_error"] for r in rows])
-    print(f"max |error|: alpha {100 * np.abs(ea).max():.2f} %, beta {100 * np.abs(eb).max():.2f} % "
-          f"over {len(rows)} slice points")  # fmt: skip
+    print(
+        f"max |error|: alpha {100 * np.abs(ea).max():.2f} %, beta {100 * np.abs(eb).max():.2f} % "
+        f"over {len(rows)} slice points"
+    )
     if not args.no_write:
         RESULT.parent.mkdir(exist_ok=True)
         RESULT.write_text(

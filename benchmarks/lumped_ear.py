@@ -77,11 +77,15 @@ def main() -> int:
     t2 = time.perf_counter()
     many.freq_resp(f[::10])
     t3 = time.perf_counter()
-    print(f"\n-- sweep: 1000 frequencies, one design {1e3 * (t1 - t0):.2f} ms; 1000 designs: assembly "
-          f"{1e3 * (t2 - t1):.1f} ms, x 100 frequencies {1e3 * (t3 - t2):.0f} ms")  # fmt: skip
+    print(
+        f"\n-- sweep: 1000 frequencies, one design {1e3 * (t1 - t0):.2f} ms; 1000 designs: assembly "
+        f"{1e3 * (t2 - t1):.1f} ms, x 100 frequencies {1e3 * (t3 - t2):.0f} ms"
+    )
     f_n, zeta = ear.natural_frequencies_hz()
-    print("-- natural frequencies (embedded joint, estimated masses): "
-          + ", ".join(f"{v:.0f} Hz (zeta {z:.2f})" for v, z in zip(f_n, zeta, strict=True)))  # fmt: skip
+    print(
+        "-- natural frequencies (embedded joint, estimated masses): "
+        + ", ".join(f"{v:.0f} Hz (zeta {z:.2f})" for v, z in zip(f_n, zeta, strict=True))
+    )
     print(f"   coordinates {ear.coordinates}")
     report["timing_s"] = {"sweep_1000": t1 - t0, "assemble_1000_designs": t2 - t1, "designs_x_freq": t3 - t2}
     if args.json:

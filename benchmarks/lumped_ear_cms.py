@@ -68,8 +68,10 @@ def main() -> int:
     t0 = time.perf_counter()
     modes = DrumModes.from_dict(drum_modes(n_modes=max(c or 0 for c in MODE_COUNTS) + 40, mesh_size_m=h))
     report["drum_modes_s"] = time.perf_counter() - t0
-    print(f"drum mesh {h * 1e3:g} mm: {modes.n_modes} fixed-interface modes, {modes.freq_hz[0]:.0f} to "
-          f"{modes.freq_hz[-1]:.0f} Hz, in {report['drum_modes_s']:.2f} s")  # fmt: skip
+    print(
+        f"drum mesh {h * 1e3:g} mm: {modes.n_modes} fixed-interface modes, {modes.freq_hz[0]:.0f} to "
+        f"{modes.freq_hz[-1]:.0f} Hz, in {report['drum_modes_s']:.2f} s"
+    )
 
     # ---- 1. rigid joint
     f = np.geomspace(200.0, 8000.0, 14)
@@ -91,12 +93,16 @@ def main() -> int:
             "holds_below_hz": lim,
             "worst_db_to_5khz": float(np.abs(db[to5]).max()),
             "worst_deg_to_5khz": float(np.abs(deg[to5]).max()),
-            "umbo_db": db[:, 0].tolist(), "umbo_deg": deg[:, 0].tolist(),
-            "stapes_db": db[:, 1].tolist(), "stapes_deg": deg[:, 1].tolist(),
-        }  # fmt: skip
+            "umbo_db": db[:, 0].tolist(),
+            "umbo_deg": deg[:, 0].tolist(),
+            "stapes_db": db[:, 1].tolist(),
+            "stapes_deg": deg[:, 1].tolist(),
+        }
         w_db, w_deg = rows[str(n)]["worst_db_to_5khz"], rows[str(n)]["worst_deg_to_5khz"]
-        print(f"{label:28s} within 1 dB, 10 deg below {lim:7.0f} Hz; worst to 5 kHz {w_db:6.2f} dB "
-              f"{w_deg:6.1f} deg")  # fmt: skip
+        print(
+            f"{label:28s} within 1 dB, 10 deg below {lim:7.0f} Hz; worst to 5 kHz {w_db:6.2f} dB "
+            f"{w_deg:6.1f} deg"
+        )
         print("    umbo dB  " + " ".join(f"{v:6.2f}" for v in db[:, 0]))
         print("    umbo deg " + " ".join(f"{v:6.1f}" for v in deg[:, 0]))
     report["rigid"] = {"freq_hz": f.tolist(), "fe_s_per_freq": t_fe, "lumped": rows}
@@ -117,15 +123,20 @@ def main() -> int:
             H = ear.freq_resp(fj)
             db, deg = errors(H, fe_j)
             ab = H[:, 2:] / fe_j[:, 2:]
-            out[str(n)] = {"umbo_stapes_db": db.tolist(), "umbo_stapes_deg": deg.tolist(),
-                           "alpha_beta_db": (20 * np.log10(np.abs(ab))).tolist(),
-                           "alpha_beta_deg": np.degrees(np.angle(ab)).tolist()}  # fmt: skip
+            out[str(n)] = {
+                "umbo_stapes_db": db.tolist(),
+                "umbo_stapes_deg": deg.tolist(),
+                "alpha_beta_db": (20 * np.log10(np.abs(ab))).tolist(),
+                "alpha_beta_deg": np.degrees(np.angle(ab)).tolist(),
+            }
             lab = "no modes" if n is None else f"{n} modes"
             for i, fi in enumerate(fj):
                 a_db, b_db = out[str(n)]["alpha_beta_db"][i]
-                print(f"  {lab:9s} {fi:6.0f} Hz: umbo {db[i, 0]:+6.2f} dB {deg[i, 0]:+6.1f} deg, stapes "
-                      f"{db[i, 1]:+6.2f} dB {deg[i, 1]:+6.1f} deg, alpha {a_db:+6.2f} dB, "
-                      f"beta {b_db:+6.2f} dB")  # fmt: skip
+                print(
+                    f"  {lab:9s} {fi:6.0f} Hz: umbo {db[i, 0]:+6.2f} dB {deg[i, 0]:+6.1f} deg, stapes "
+                    f"{db[i, 1]:+6.2f} dB {deg[i, 1]:+6.1f} deg, alpha {a_db:+6.2f} dB, "
+                    f"beta {b_db:+6.2f} dB"
+                )
         report["joint"] = out
 
     # ---- 3. evaluation time (the default drum's shipped modes)
@@ -139,12 +150,17 @@ def main() -> int:
         t_one = best_of(lambda e=one: e.freq_resp(ff))
         t_many = best_of(lambda e=many: e.freq_resp(ff))
         t_asm = best_of(lambda n=n: ear_model(gap_e_pa=gap, drum_modes=n))
-        timing[str(n)] = {"one_design_1000_freq_s": t_one, "assemble_100_designs_s": t_asm,
-                          "100_designs_1000_freq_s": t_many}  # fmt: skip
+        timing[str(n)] = {
+            "one_design_1000_freq_s": t_one,
+            "assemble_100_designs_s": t_asm,
+            "100_designs_1000_freq_s": t_many,
+        }
         lab = "no modes" if n is None else f"{n} modes"
-        print(f"  {lab:9s} one design x 1000 frequencies {t_one * 1e3:6.1f} ms "
-              f"({t_one * 1e3:.1f} us each); 100 designs: assembly {t_asm * 1e3:6.1f} ms, x 1000 frequencies "
-              f"{t_many * 1e3:6.0f} ms ({t_many * 1e6 / 1e5:.1f} us per design and frequency)")  # fmt: skip
+        print(
+            f"  {lab:9s} one design x 1000 frequencies {t_one * 1e3:6.1f} ms "
+            f"({t_one * 1e3:.1f} us each); 100 designs: assembly {t_asm * 1e3:6.1f} ms, x 1000 frequencies "
+            f"{t_many * 1e3:6.0f} ms ({t_many * 1e6 / 1e5:.1f} us per design and frequency)"
+        )
     report["timing"] = timing
     if args.json:
         with open(args.json, "w") as fh:

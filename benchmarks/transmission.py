@@ -45,9 +45,13 @@ def main() -> int:
     t0 = time.perf_counter()
     h_rigid = w * rigid.harmonic(FREQ_HZ).outputs()[:, 1]
     t_rigid = time.perf_counter() - t0
-    print(f"rigid connection, direct FE ({t_rigid:.1f} s): |H_V| " + ", ".join(
-        f"{abs(v):.3e} m/s/Pa ({np.degrees(np.angle(v)):+.1f} deg) at {f:g} Hz"
-        for v, f in zip(h_rigid, FREQ_HZ, strict=True)))  # fmt: skip
+    print(
+        f"rigid connection, direct FE ({t_rigid:.1f} s): |H_V| "
+        + ", ".join(
+            f"{abs(v):.3e} m/s/Pa ({np.degrees(np.angle(v)):+.1f} deg) at {f:g} Hz"
+            for v, f in zip(h_rigid, FREQ_HZ, strict=True)
+        )
+    )
     rigid_rom = es.reduced_ear(rigid, fmax_hz=20e3)
     h_rigid_rom = w * rigid_rom.outputs(FREQ_HZ)[:, 1]
     lumped = transmission(FREQ_HZ, [case_by_name(c) for c in args.cases])
@@ -66,15 +70,21 @@ def main() -> int:
         l_db, l_deg = lumped.delta_db[:, k], lumped.delta_deg[:, k]
         print(f"\n{name}: direct FE {t_direct:.1f} s, reduction {t_rom:.1f} s")
         for i, f in enumerate(FREQ_HZ):
-            print(f"  {f:6.0f} Hz  dH_V FE {d_db[i]:+6.2f} dB {d_deg[i]:+6.1f} deg | reduced - direct "
-                  f"{r_db[i]:+.1e} dB {r_deg[i]:+.1e} deg | lumped {l_db[i]:+6.2f} dB "
-                  f"{l_deg[i]:+6.1f} deg")  # fmt: skip
+            print(
+                f"  {f:6.0f} Hz  dH_V FE {d_db[i]:+6.2f} dB {d_deg[i]:+6.1f} deg | reduced - direct "
+                f"{r_db[i]:+.1e} dB {r_deg[i]:+.1e} deg | lumped {l_db[i]:+6.2f} dB "
+                f"{l_deg[i]:+6.1f} deg"
+            )
         report["cases"][name] = {
-            "delta_db": d_db.tolist(), "delta_deg": d_deg.tolist(),
-            "reduced_minus_direct_db": r_db.tolist(), "reduced_minus_direct_deg": r_deg.tolist(),
-            "lumped_delta_db": l_db.tolist(), "lumped_delta_deg": l_deg.tolist(),
-            "direct_s": t_direct, "reduction_s": t_rom,
-        }  # fmt: skip
+            "delta_db": d_db.tolist(),
+            "delta_deg": d_deg.tolist(),
+            "reduced_minus_direct_db": r_db.tolist(),
+            "reduced_minus_direct_deg": r_deg.tolist(),
+            "lumped_delta_db": l_db.tolist(),
+            "lumped_delta_deg": l_deg.tolist(),
+            "direct_s": t_direct,
+            "reduction_s": t_rom,
+        }
     if args.json:
         with open(args.json, "w") as fh:
             json.dump(report, fh, indent=1)

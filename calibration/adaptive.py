@@ -198,9 +198,15 @@ def adaptive_fit(
             calibration, factors=dict(zip(FACTOR_NAMES, map(float, factors), strict=True))
         )
         guard = run_guard(
-            cal, oracle, {}, tolerance=tolerance, n_dense=n_dense, seed=seed, pressure_pa=pressure_pa,
+            cal,
+            oracle,
+            {},
+            tolerance=tolerance,
+            n_dense=n_dense,
+            seed=seed,
+            pressure_pa=pressure_pa,
             geometry=geometry,
-        )  # fmt: skip
+        )
         row = _round_summary(k, len(records), guard)
         history.append(row)
         guards.append(guard)
@@ -226,9 +232,10 @@ def adaptive_fit(
         if k == max_rounds:
             break
         picks = [
-            p for p in worst_picks(guard, per_round + len(seen))
+            p
+            for p in worst_picks(guard, per_round + len(seen))
             if tuple(sorted(_design(guard.sets[p[0]].design(p[1]), calibration.domain).items())) not in seen
-        ][:per_round]  # fmt: skip
+        ][:per_round]
         designs = [_design(guard.sets[name].design(i), calibration.domain) for name, i in picks]
         new = confirm(designs)
         if len(new) != len(designs):
@@ -292,8 +299,9 @@ def fe_confirm(
     return confirm
 
 
-def adaptive_calibration(calibration, result: AdaptiveResult, held_records: Sequence[dict], settings: dict,
-                         **options) -> object:  # fmt: skip
+def adaptive_calibration(
+    calibration, result: AdaptiveResult, held_records: Sequence[dict], settings: dict, **options
+) -> object:
     """The artifact of an adaptive fit: ``calibration`` with the best round's factors and errors.
 
     ``training`` holds the errors over every training record (initial and added), ``validation``
@@ -364,9 +372,17 @@ def calibrate_adaptive(
     pressure = float(settings.get("pressure_pa", DEFAULT_PRESSURE_PA))
     confirm = fe_confirm(evaluate, settings, cache_dir, progress, scheduler)
     res = adaptive_fit(
-        start, recs[: len(train)], oracle, confirm, seed=seed, geometry=geometry, pressure_pa=pressure,
-        refit_first=True, log=log, **loop,
-    )  # fmt: skip
+        start,
+        recs[: len(train)],
+        oracle,
+        confirm,
+        seed=seed,
+        geometry=geometry,
+        pressure_pa=pressure,
+        refit_first=True,
+        log=log,
+        **loop,
+    )
     options = {"norm": DEFAULT_NORM, "n_dense": DEFAULT_DENSE, "tolerance": DEFAULT_TOLERANCE}
     options |= {"per_round": DEFAULT_PER_ROUND, "max_rounds": DEFAULT_MAX_ROUNDS} | loop | {"seed": seed}
     cal = adaptive_calibration(start, res, recs[len(train) :], settings, **options)

@@ -233,9 +233,15 @@ def explore(
     guard = None
     if surrogate is not None:
         guard = run_guard(
-            calibration, surrogate, designs, tolerance=tolerance, n_dense=n_dense, seed=seed,
-            pressure_pa=pressure, geometry=geometry,
-        )  # fmt: skip
+            calibration,
+            surrogate,
+            designs,
+            tolerance=tolerance,
+            n_dense=n_dense,
+            seed=seed,
+            pressure_pa=pressure,
+            geometry=geometry,
+        )
         pairs = worst_picks(guard, spot_checks)
         fe_designs = [guard.sets[name].design(i) for name, i in pairs]
     else:

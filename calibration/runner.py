@@ -213,9 +213,12 @@ def run_designs(
     failures: list[tuple[dict, BaseException]] = []
     if todo:
         bar = tqdm(
-            total=len(todo), desc="FE designs", unit="design", disable=None if progress else True,
+            total=len(todo),
+            desc="FE designs",
+            unit="design",
+            disable=None if progress else True,
             postfix={"cached": len(records)},
-        )  # fmt: skip
+        )
         try:
 
             def store(key: str, outcome: Callable[[], Mapping]) -> None:

@@ -71,13 +71,19 @@ def main(argv=None) -> None:
     for label, stats in (("training", training), ("held-out", validation)):
         print(f"{label} max error: alpha {stats['max_alpha']:.4e}, beta {stats['max_beta']:.4e}")
     before = error_stats(shipped.factors, held_points)
-    print(f"shipped calibration, held-out max error: alpha {before['max_alpha']:.4e}, "
-          f"beta {before['max_beta']:.4e}")  # fmt: skip
+    print(
+        f"shipped calibration, held-out max error: alpha {before['max_alpha']:.4e}, "
+        f"beta {before['max_beta']:.4e}"
+    )
     mid = custom.static(SPACE.mid())
-    print(f"custom model at the space's centre: alpha_rad = {float(mid.alpha_rad)!r}, "
-          f"beta_rad = {float(mid.beta_rad)!r}")  # fmt: skip
-    print(f"inside its domain: the centre {bool(custom.in_domain(SPACE.mid()))}, "
-          f"a 1 MPa gap {bool(custom.in_domain(gap_e_pa=1e6))}")  # fmt: skip
+    print(
+        f"custom model at the space's centre: alpha_rad = {float(mid.alpha_rad)!r}, "
+        f"beta_rad = {float(mid.beta_rad)!r}"
+    )
+    print(
+        f"inside its domain: the centre {bool(custom.in_domain(SPACE.mid()))}, "
+        f"a 1 MPa gap {bool(custom.in_domain(gap_e_pa=1e6))}"
+    )
     if args.out:
         from isj.atomic import atomic_write_text
 

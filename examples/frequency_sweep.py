@@ -35,8 +35,10 @@ def main(argv=None) -> None:
     sweep = lumped.chain_response(freq_hz, design)  # at the default pressure amplitude
     f_nat, zeta = lumped.chain(design).poles()  # ζ1 ≈ 0.02: mostly bone (η = 0.01), some joint (0.15)
     print(f"lumped: first natural frequency {f_nat[0]:.1f} Hz, damping ratio {zeta[0]:.2f}")
-    print(f"lumped: |alpha| from {sweep.magnitude('alpha_rad')[0]:.4e} rad at {freq_hz[0]:g} Hz "
-          f"to {sweep.magnitude('alpha_rad')[-1]:.4e} rad at {freq_hz[-1]:g} Hz")  # fmt: skip
+    print(
+        f"lumped: |alpha| from {sweep.magnitude('alpha_rad')[0]:.4e} rad at {freq_hz[0]:g} Hz "
+        f"to {sweep.magnitude('alpha_rad')[-1]:.4e} rad at {freq_hz[-1]:g} Hz"
+    )
 
     model = isj.PedicleJointModel(order=2, resolution=args.resolution)
     at = [0.0, args.check_hz]  # 0 Hz: the static response, for the amplification

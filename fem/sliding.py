@@ -325,11 +325,15 @@ def compare_cases(
     base = base or Materials(nu=nu)
     models = {
         j: PedicleJointModel(
-            geometry, order=order, resolution=resolution, joint=j, layer_shear_pa=layer_shear_pa,
+            geometry,
+            order=order,
+            resolution=resolution,
+            joint=j,
+            layer_shear_pa=layer_shear_pa,
             cache_dir=cache_dir,
         )
         for j in joints
-    }  # fmt: skip
+    }
     rows = []
     for case in THESIS_CASES:
         for j, model in models.items():

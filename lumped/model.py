@@ -290,8 +290,22 @@ def equations(E, factors, lever: Lever, joint: str = "bonded"):
     """
     if joint not in PLATE_SUPPORT_EXPONENT:
         raise InvalidParameter(f"joint = {joint!r}: must be one of {', '.join(PLATE_SUPPORT_EXPONENT)}")
-    (f_beam, f_root, f_top, f_fdn, f_gap, f_cap, f_att_p, f_att_s, f_plate, f_stapes, f_support, f_share,
-     f_rp, f_pf) = (factors[i] for i in range(len(FACTOR_NAMES)))  # fmt: skip
+    (
+        f_beam,
+        f_root,
+        f_top,
+        f_fdn,
+        f_gap,
+        f_cap,
+        f_att_p,
+        f_att_s,
+        f_plate,
+        f_stapes,
+        f_support,
+        f_share,
+        f_rp,
+        f_pf,
+    ) = (factors[i] for i in range(len(FACTOR_NAMES)))
     exp, cos = _exp_cos(E["gap_e_pa"], factors[0])
     P = lever.force_per_pa
     e_gap, e_plate, e_stapes = E["gap_e_pa"], E["plate_e_pa"], E["stapes_e_pa"]

@@ -260,10 +260,13 @@ def thevenin_sensitivity(
     lm = model or LumpedModel.default()
     base = base or Materials()
     ears = [
-        lm.ear(dataclasses_replace(base, pedicle_e_pa=base.pedicle_e_pa * np.exp(s)), drum_modes=drum_modes,
-               **ear_options)
+        lm.ear(
+            dataclasses_replace(base, pedicle_e_pa=base.pedicle_e_pa * np.exp(s)),
+            drum_modes=drum_modes,
+            **ear_options,
+        )
         for s in (-step, 0.0, step)
-    ]  # fmt: skip
+    ]
     lp = load_path(ears[1], f)
     out = {"freq_hz": f, "ear_beta": [], "force_driven_beta": []}
     for i, fi in enumerate(f):

@@ -48,9 +48,15 @@ class DesignConfig(Materials):
 
     #: The [design] keys, in the order the resolved configuration writes them.
     CONFIG_KEYS: ClassVar[tuple[str, ...]] = (
-        "pedicle_e_pa", "gap_e_pa", "capsule_e_pa", "plate_e_pa", "stapes_e_pa", "incus_e_pa",
-        "nu", "pressure_pa",
-    )  # fmt: skip
+        "pedicle_e_pa",
+        "gap_e_pa",
+        "capsule_e_pa",
+        "plate_e_pa",
+        "stapes_e_pa",
+        "incus_e_pa",
+        "nu",
+        "pressure_pa",
+    )
 
     def materials(self) -> Materials:
         """The base design without the load, as a plain :class:`~isj.design.Materials`."""
@@ -384,8 +390,9 @@ def _check(cfg: ReportConfig) -> None:
     need(0 <= t.fe_points <= 20, "trends.fe_points", t.fe_points, "must be in [0, 20]")
     gt = cfg.geometry_trends
     need(5 <= gt.n_lumped <= 10_000, "geometry_trends.n_lumped", gt.n_lumped, "must be in [5, 10000]")
-    need(gt.fe_points in (0, *range(2, 9)), "geometry_trends.fe_points", gt.fe_points,
-         "must be 0 or in [2, 8]")  # fmt: skip
+    need(
+        gt.fe_points in (0, *range(2, 9)), "geometry_trends.fe_points", gt.fe_points, "must be 0 or in [2, 8]"
+    )
     for o in cfg.convergence.orders:
         need(o in (1, 2), "convergence.orders", o, "each must be 1 or 2")
     for s in cfg.convergence.directions:
@@ -404,8 +411,12 @@ def _check(cfg: ReportConfig) -> None:
     need(1 <= s.n_modes <= 30, "sweep.n_modes", s.n_modes, "must be in [1, 30]")
     t = cfg.transmission
     need(t.fmin_hz > 0, "transmission.fmin_hz", t.fmin_hz, "must be > 0 (Hz)")
-    need(t.fmin_hz < t.fmax_hz <= 24e3, "transmission.fmax_hz", t.fmax_hz,
-         f"must be in ({t.fmin_hz:g}, 24000] Hz (the drum's shipped modes reach 24.9 kHz)")  # fmt: skip
+    need(
+        t.fmin_hz < t.fmax_hz <= 24e3,
+        "transmission.fmax_hz",
+        t.fmax_hz,
+        f"must be in ({t.fmin_hz:g}, 24000] Hz (the drum's shipped modes reach 24.9 kHz)",
+    )
     need(2 <= t.n_freq <= 2000, "transmission.n_freq", t.n_freq, "must be in [2, 2000]")
     need(0 <= t.fe_checks <= 5, "transmission.fe_checks", t.fe_checks, "must be in [0, 5]")
     names = [c.name for c in THESIS_CASES]
@@ -414,12 +425,20 @@ def _check(cfg: ReportConfig) -> None:
     need(len(set(t.cases)) == len(t.cases), "transmission.cases", list(t.cases), "must not repeat")
     for c in t.sliding_cases:
         need(c in names, "transmission.sliding_cases", c, f"each must be one of {', '.join(names)}")
-    need(len(set(t.sliding_cases)) == len(t.sliding_cases), "transmission.sliding_cases",
-         list(t.sliding_cases), "must not repeat")  # fmt: skip
+    need(
+        len(set(t.sliding_cases)) == len(t.sliding_cases),
+        "transmission.sliding_cases",
+        list(t.sliding_cases),
+        "must not repeat",
+    )
     sl = cfg.sliding
     for j in sl.joints:
-        need(j in ("bonded", "sliding", "layer"), "sliding.joints", j,
-             'each must be "bonded", "sliding" or "layer"')  # fmt: skip
+        need(
+            j in ("bonded", "sliding", "layer"),
+            "sliding.joints",
+            j,
+            'each must be "bonded", "sliding" or "layer"',
+        )
     need(len(set(sl.joints)) == len(sl.joints), "sliding.joints", list(sl.joints), "must not repeat")
     need("bonded" in sl.joints, "sliding.joints", list(sl.joints), 'must include "bonded" (the reference)')
     g = sl.layer_shear_pa
@@ -435,8 +454,12 @@ def _check(cfg: ReportConfig) -> None:
         need(lo <= v <= hi, f"uq.{key}", v, f"must be in [{lo}, {hi}]")
     n = u.sobol_samples
     need(n & (n - 1) == 0, "uq.sobol_samples", n, "must be a power of 2 (Sobol' balance), e.g. 16384")
-    need(n * u.bootstrap <= 2**24, "uq.sobol_samples x uq.bootstrap", n * u.bootstrap,
-         "must be <= 16777216 (memory of SALib's bootstrap)")  # fmt: skip
+    need(
+        n * u.bootstrap <= 2**24,
+        "uq.sobol_samples x uq.bootstrap",
+        n * u.bootstrap,
+        "must be <= 16777216 (memory of SALib's bootstrap)",
+    )
 
 
 def parse_override(text: str) -> tuple[str, str, object]:

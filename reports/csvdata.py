@@ -146,8 +146,14 @@ def tables(step: str, res: dict, arr: dict) -> dict[str, str]:
     if step == "transmission":
         return _transmission(res, arr)
     if step == "sliding":
-        keys = ["alpha_rad", "beta_rad", "beta_over_alpha", "capsule_shear_share", "capsule_moment_share",
-                "strain_energy_j"]  # fmt: skip
+        keys = [
+            "alpha_rad",
+            "beta_rad",
+            "beta_over_alpha",
+            "capsule_shear_share",
+            "capsule_moment_share",
+            "strain_energy_j",
+        ]
         keys += ["lumped_alpha_rad", "lumped_beta_rad", "lumped_beta_over_alpha"]
         # the layer has no lumped calibration: its lumped columns are empty
         cell = lambda r, k: "" if r.get(k) is None else r[k]  # noqa: E731
@@ -157,11 +163,17 @@ def tables(step: str, res: dict, arr: dict) -> dict[str, str]:
     if step == "geometry_trends":
         cols = ["dimension", "value_m", "fe_alpha_rad", "fe_beta_rad", "lumped_alpha_rad", "lumped_beta_rad"]
         rows = [
-            [dim, q["value_m"], q["fe"]["alpha_rad"], q["fe"]["beta_rad"], q["lumped"]["alpha_rad"],
-             q["lumped"]["beta_rad"]]
+            [
+                dim,
+                q["value_m"],
+                q["fe"]["alpha_rad"],
+                q["fe"]["beta_rad"],
+                q["lumped"]["alpha_rad"],
+                q["lumped"]["beta_rad"],
+            ]
             for dim, tr in res["trends"].items()
             for q in tr["fe_points"]
-        ]  # fmt: skip
+        ]
         head = "one dimension varied, all else at the report's values (FE; lumped: the geometry calibration)"
         return {"geometry_trends.csv": _csv(head, cols, rows)}
     return {}

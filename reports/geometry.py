@@ -65,8 +65,9 @@ def geometry_trends_step(ctx) -> tuple[dict, dict]:
     # the report's geometry last: the other steps' model of it is then the newest one memoised
     items = [(base, {dim: v}) for dim, *_, x0, _, _, xf in plan for v in xf if v != x0]
     items.append((base, {}))
-    records = run_geometry_designs(items, evaluate_design, ctx.settings, ctx.fe_cache_dir, max_workers=0,
-                                   progress=ctx.progress)  # fmt: skip
+    records = run_geometry_designs(
+        items, evaluate_design, ctx.settings, ctx.fe_cache_dir, max_workers=0, progress=ctx.progress
+    )
     fe = {tuple(sorted(r["settings"]["geometry"].items())): r["result"] for r in records}
     for dim, output, law, x0, lo, hi, xf in plan:
         points = []
@@ -74,11 +75,13 @@ def geometry_trends_step(ctx) -> tuple[dict, dict]:
             g = dataclasses.replace(geom, **{dim: v})
             r = fe[tuple(sorted(dataclasses.asdict(g).items()))]
             lu = lumped_static(cal, [base], g, p)
-            points.append({
-                "value_m": v,
-                "fe": {"alpha_rad": r["alpha_rad"], "beta_rad": r["beta_rad"]},
-                "lumped": {"alpha_rad": float(lu.alpha_rad[0]), "beta_rad": float(lu.beta_rad[0])},
-            })  # fmt: skip
+            points.append(
+                {
+                    "value_m": v,
+                    "fe": {"alpha_rad": r["alpha_rad"], "beta_rad": r["beta_rad"]},
+                    "lumped": {"alpha_rad": float(lu.alpha_rad[0]), "beta_rad": float(lu.beta_rad[0])},
+                }
+            )
         i = xf.index(x0)
         y = [q["fe"][output] for q in points]
         out[dim] = {
@@ -101,9 +104,16 @@ def geometry_trend_panels(fig, res: dict, arrays: dict, y0: float, height: float
         ax = fig.add_axes([0.08 + 0.47 * j, y0, 0.38, height])
         pts = tr["fe_points"]
         figures.geometry_trend(
-            ax, arrays[f"{dim}_x_m"], arrays[f"{dim}_{output}"], [q["value_m"] for q in pts],
-            [q["fe"][output] for q in pts], dim, output, tr["value_m"], tr["reference_exponent"],
-        )  # fmt: skip
+            ax,
+            arrays[f"{dim}_x_m"],
+            arrays[f"{dim}_{output}"],
+            [q["value_m"] for q in pts],
+            [q["fe"][output] for q in pts],
+            dim,
+            output,
+            tr["value_m"],
+            tr["reference_exponent"],
+        )
         if j == 0:
             ax.legend(fontsize=6)
 

@@ -21,11 +21,20 @@ def guard_step(ctx) -> tuple[dict, dict]:
 
     cfg, g = ctx.config, ctx.config.guard
     base = cfg.design.materials()
-    rom = reduced_model(cfg.geometry, cfg.mesh.order, cfg.mesh.resolution,
-                        DesignSpace(incus_e_pa=base.incus_e_pa, nu=base.nu))  # fmt: skip
+    rom = reduced_model(
+        cfg.geometry, cfg.mesh.order, cfg.mesh.resolution, DesignSpace(incus_e_pa=base.incus_e_pa, nu=base.nu)
+    )
     none = {k: np.zeros(0) for k in ctx.calibration.domain}
-    guard = run_guard(ctx.calibration, rom, none, tolerance=g.tolerance, n_dense=g.dense_samples,
-                      seed=g.seed, pressure_pa=cfg.design.pressure_pa, geometry=cfg.geometry)  # fmt: skip
+    guard = run_guard(
+        ctx.calibration,
+        rom,
+        none,
+        tolerance=g.tolerance,
+        n_dense=g.dense_samples,
+        seed=g.seed,
+        pressure_pa=cfg.design.pressure_pa,
+        geometry=cfg.geometry,
+    )
     picks = worst_picks(guard, g.fe_checks)
     designs = [guard.sets[name].design(i) | {"nu": base.nu} for name, i in picks]
     confirmed = confirmations(guard, picks, ctx.compare(designs), g.tolerance) if designs else []
@@ -52,8 +61,15 @@ def guard_page(fig, res: dict, arrays: dict):
         r, c = divmod(n, ncol)
         ax = fig.add_axes([0.08 + c * (w + 0.04), 0.76 - r * (h + 0.05), w, h])
         order = np.argsort(err)  # the worst on top
-        sc = ax.scatter(arrays[f"dense_{a}"][order], arrays[f"dense_{b}"][order], c=err[order], s=3,
-                        cmap="viridis", vmin=0, vmax=max(float(err.max()), 1e-9))  # fmt: skip
+        sc = ax.scatter(
+            arrays[f"dense_{a}"][order],
+            arrays[f"dense_{b}"][order],
+            c=err[order],
+            s=3,
+            cmap="viridis",
+            vmin=0,
+            vmax=max(float(err.max()), 1e-9),
+        )
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_xlabel(f"{a.removesuffix('_e_pa')} (Pa)", fontsize=6)

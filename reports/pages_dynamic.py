@@ -15,8 +15,11 @@ def damping_caption(sweep: dict) -> str:
 
     d = sweep["damping"]
     parts = []
-    for key, label, unit in (("loss_factor", "eta", ""), ("rayleigh_a_per_s", "a", " 1/s"),
-                             ("rayleigh_b_s", "b", " s")):  # fmt: skip
+    for key, label, unit in (
+        ("loss_factor", "eta", ""),
+        ("rayleigh_a_per_s", "a", " 1/s"),
+        ("rayleigh_b_s", "b", " s"),
+    ):
         by_value: dict[float, list[str]] = {}
         for r in REGIONS:
             by_value.setdefault(d[key][r], []).append(r)
@@ -201,9 +204,13 @@ def ear_page(fig, ear: dict, arrays: dict, cases: dict):
     rows = [
         ("umbo |u| (nm/Pa)", b["umbo_m_per_pa"], r["umbo_m_per_pa"], f"{exp['umbo_m_per_pa'] * nm:.0f}"),
         ("eardrum max |u| (nm/Pa)", b["eardrum_max_m_per_pa"], r["eardrum_max_m_per_pa"], "-"),
-        ("footplate piston (nm/Pa)", b["footplate_piston_m_per_pa"], r["footplate_piston_m_per_pa"],
-         f"{s_lo * nm:.0f}-{s_hi * nm:.0f}"),
-    ]  # fmt: skip
+        (
+            "footplate piston (nm/Pa)",
+            b["footplate_piston_m_per_pa"],
+            r["footplate_piston_m_per_pa"],
+            f"{s_lo * nm:.0f}-{s_hi * nm:.0f}",
+        ),
+    ]
     lines = [head, "-" * len(head)]
     lines += [f"{n:30} {v1 * nm:12.2f} {v2 * nm:12.2f} {e:>12}" for n, v1, v2, e in rows]
     for i, comp in enumerate("xyz"):

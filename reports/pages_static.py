@@ -183,14 +183,19 @@ def trends_page(fig, trends: dict, arrays: dict, design: dict, moduli: tuple[str
         lines += geometry_trend_lines(geometry[0])
     text_block(fig, 0.07, 0.235 if geometry else 0.215, "\n".join(lines), fontsize=6.5)
     fig.text(
-        0.07, 0.925, wrap(
+        0.07,
+        0.925,
+        wrap(
             "One modulus varied over the calibrated domain, the others at the base design (dotted line). "
             "Curves: lumped model; circles: FE. Every y axis spans at least 10 % of its mean, so a flat "
             "curve means the output hardly depends on that modulus. Last row: one dimension varied over "
             "the geometry calibration's range, log-log; dashed: the cubic law of the pedicle's bending "
-            "through the FE point at the report's geometry.", 120
-        ), fontsize=7.5, va="top",
-    )  # fmt: skip
+            "through the FE point at the report's geometry.",
+            120,
+        ),
+        fontsize=7.5,
+        va="top",
+    )
 
 
 def energy_page(fig, cases: dict):

@@ -37,8 +37,10 @@ def hv_page(fig, tr: dict, arrays: dict):
     ax_p.set_ylabel("phase (deg)", fontsize=7)
     ax_p.set_xlabel("frequency (Hz)", fontsize=7)
     ax_m.legend(fontsize=6, ncol=2)
-    ax_m.set_title(f"FE whole ear (reduced), case {first} and a rigid incus-stapes connection; "
-                   "x: direct FE checks", fontsize=8)  # fmt: skip
+    ax_m.set_title(
+        f"FE whole ear (reduced), case {first} and a rigid incus-stapes connection; x: direct FE checks",
+        fontsize=8,
+    )
     for ax in (ax_m, ax_p):
         ax.tick_params(labelsize=6)
         ax.grid(True, which="both", lw=0.3)
@@ -50,8 +52,15 @@ def hv_page(fig, tr: dict, arrays: dict):
         v = arrays[f"{first}_stapes_velocity_m_s"]
         gain = tr["damping"]["cochlear_impedance_pa_s_m3"] * EarGeometry().footplate_area_m2 * v
         ax_g.semilogx(f, _db(gain), "C0", lw=1, label="model: Z_C A_fp H_V")
-        ax_g.errorbar([1000.0], [22.5], yerr=[[7.5], [7.5]], fmt="ks", ms=4, capsize=3,
-                      label="Nedzelnitsky 1980: maximum 15-30 dB near 1 kHz")  # fmt: skip
+        ax_g.errorbar(
+            [1000.0],
+            [22.5],
+            yerr=[[7.5], [7.5]],
+            fmt="ks",
+            ms=4,
+            capsize=3,
+            label="Nedzelnitsky 1980: maximum 15-30 dB near 1 kHz",
+        )
         ax_g.legend(fontsize=6)
     ax_g.set_ylabel("vestibule / ear-canal\npressure (dB)", fontsize=7)
     ax_g.tick_params(labelsize=6)
@@ -103,8 +112,11 @@ def delta_page(fig, tr: dict, arrays: dict, lumped: dict, lumped_arrays: dict):
     ax_s.set_title("pedicle share |beta / (alpha + beta)|, FE", fontsize=8)
     ax_s.set_ylim(0, 1.5)
     ax_m.legend(fontsize=5.5, ncol=2)
-    named = (("p3", "p12", "pedicle: p3 / p12"), ("j5c20", "base", "joint: j5c20 / base"),
-             ("base_sliding", "base", "sliding / bonded joint"))  # fmt: skip
+    named = (
+        ("p3", "p12", "pedicle: p3 / p12"),
+        ("j5c20", "base", "joint: j5c20 / base"),
+        ("base_sliding", "base", "sliding / bonded joint"),
+    )
     pairs = [(a, b, lab) for a, b, lab in named if a in cases and b in cases]
     axes = [ax_m, ax_p, ax_s]
     if pairs:  # the pedicle's and the joint's own effect, where the cases allow it
@@ -122,8 +134,10 @@ def delta_page(fig, tr: dict, arrays: dict, lumped: dict, lumped_arrays: dict):
         ax.set_xlabel("frequency (Hz)", fontsize=6)
     lines = [f"{'dH_V, FE':15}" + "".join(f"{c:>15}" for c in cases)]
     for q in tr["quote"]:
-        lines.append(f"{q['freq_hz']:8.0f} Hz    " + "".join(
-            f"{q['delta_db'][c]:+7.2f}dB{q['delta_deg'][c]:+5.1f}d" for c in cases))  # fmt: skip
+        lines.append(
+            f"{q['freq_hz']:8.0f} Hz    "
+            + "".join(f"{q['delta_db'][c]:+7.2f}dB{q['delta_deg'][c]:+5.1f}d" for c in cases)
+        )
     worst_db, worst_deg = tr["worst_delta_db"], tr["worst_delta_deg"]
     lines.append("worst |.|      " + "".join(f"{worst_db[c]:7.2f}dB{worst_deg[c]:5.1f}d " for c in cases))
     text_block(fig, 0.04, 0.49, "\n".join(lines), fontsize=5.6)
@@ -137,11 +151,13 @@ def delta_page(fig, tr: dict, arrays: dict, lumped: dict, lumped_arrays: dict):
     for r in lp:
         lab = "default" if r["scaled"] == "default" else f"{r['scaled']} x {r['factor']:g}"
         rows.append(
-            f"{lab:19}" + "".join(f"{x:10.2f}" for x in r["env_ratio"])[2:] + "   "
+            f"{lab:19}"
+            + "".join(f"{x:10.2f}" for x in r["env_ratio"])[2:]
+            + "   "
             + "".join(f"{x:+7.3f}" for x in r["ear_beta_sensitivity"])
             + f"{r['thevenin_beta_sensitivity'][0]:+7.3f}{r['force_driven_beta_sensitivity'][0]:+7.3f}"
             + f"{r['isolated_beta_sensitivity']:+7.3f}"
-        )  # fmt: skip
+        )
     text_block(fig, 0.04, 0.40, "\n".join(rows), fontsize=5.6)
     base = lp[0]
     most = max(lp[1:], key=lambda r: abs(r["ear_beta_sensitivity"][0]))
@@ -167,5 +183,5 @@ def delta_page(fig, tr: dict, arrays: dict, lumped: dict, lumped_arrays: dict):
         f"{most['factor']:g} moves it most ({most['ear_beta_sensitivity'][0]:+.3f} at 0 Hz). "
         "The lumped ear's coupling has only alpha and beta; its dH_V (dotted) misses the FE joint's "
         "other compliances (docs/transmission.md)."
-    )  # fmt: skip
+    )
     text_block(fig, 0.07, 0.22, wrap(note, 112), fontsize=7)

@@ -31,10 +31,15 @@ def sliding_step(ctx) -> tuple[dict, dict]:
 
     cfg = ctx.config
     rows = compare_cases(
-        order=cfg.mesh.order, resolution=cfg.mesh.resolution, joints=cfg.sliding.joints,
-        nu=cfg.design.nu, pressure_pa=cfg.design.pressure_pa, layer_shear_pa=cfg.sliding.layer_shear_pa,
-        geometry=cfg.geometry, base=cfg.design.materials(),
-    )  # fmt: skip
+        order=cfg.mesh.order,
+        resolution=cfg.mesh.resolution,
+        joints=cfg.sliding.joints,
+        nu=cfg.design.nu,
+        pressure_pa=cfg.design.pressure_pa,
+        layer_shear_pa=cfg.sliding.layer_shear_pa,
+        geometry=cfg.geometry,
+        base=cfg.design.materials(),
+    )
     designs = [dataclasses.asdict(c.materials(cfg.design.materials())) for c in THESIS_CASES]
     for j in cfg.sliding.joints:
         cal = lumped_calibration(ctx, j)
@@ -72,10 +77,13 @@ def sliding_page(fig, res: dict):
     ax.axhline(1.0, color="k", lw=0.6)
     ax.legend(fontsize=7)
     ax.tick_params(labelsize=7)
-    ax.set_title("beta / alpha of the seven thesis cases, bonded and sliding joint (FE; lumped: dashes)",
-                 fontsize=8)  # fmt: skip
-    head = (f"{'case':6} {'joint':8} {'alpha urad':>11} {'beta urad':>10} {'b/a':>7} {'capsule shear':>14} "
-            f"{'capsule moment':>15} {'lumped alpha':>13} {'beta':>9} {'b/a':>7}")  # fmt: skip
+    ax.set_title(
+        "beta / alpha of the seven thesis cases, bonded and sliding joint (FE; lumped: dashes)", fontsize=8
+    )
+    head = (
+        f"{'case':6} {'joint':8} {'alpha urad':>11} {'beta urad':>10} {'b/a':>7} {'capsule shear':>14} "
+        f"{'capsule moment':>15} {'lumped alpha':>13} {'beta':>9} {'b/a':>7}"
+    )
     lines = [head, "-" * len(head)]
     for c in cases:
         for j in joints:

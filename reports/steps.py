@@ -63,9 +63,14 @@ class Context:
         from isj.fem.batch import evaluate_design
 
         return compare_static(
-            self.calibration, designs, evaluate_design, self.settings, self.fe_cache_dir,
-            max_workers=0, progress=self.progress,
-        )  # fmt: skip
+            self.calibration,
+            designs,
+            evaluate_design,
+            self.settings,
+            self.fe_cache_dir,
+            max_workers=0,
+            progress=self.progress,
+        )
 
 
 def _surface(tets: np.ndarray, region: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -355,7 +360,7 @@ def ear_step(ctx: Context) -> tuple[dict, dict]:
                 g.stapes_head_m,
                 g.footplate_centre_m,
             ]
-        ),  # fmt: skip
+        ),
         "ligaments_m": np.array([g.malleus_ligament_m, g.incudal_lateral_m, g.incudal_medial_m]),
     }
     return result, arrays

@@ -127,22 +127,24 @@ def load_path_study(ctx) -> list[dict]:
         lp = load_path(ear, f)
         sens = pedicle_sensitivity(np.where(f > 0, f, 1e-3), model=lm, base=base, **opts)
         thev = thevenin_sensitivity(f, model=lm, base=base, **opts)
-        rows.append({
-            "scaled": what,
-            "factor": factor,
-            "freq_hz": f.tolist(),
-            "env_ratio": lp["env_ratio"].tolist(),
-            "k_joint_n_m_per_rad_re_im": _ri(lp["k_joint"]),
-            "k_env_n_m_per_rad_re_im": _ri(lp["k_env"]),
-            "beta_rad_per_pa_re_im": _ri(lp["q"][:, 1]),
-            "beta_force_driven_rad_per_pa_re_im": _ri(lp["q_force_driven"][:, 1]),
-            "ear_beta_sensitivity": sens["ear_beta"].tolist(),
-            "ear_alpha_sensitivity": sens["ear_alpha"].tolist(),
-            "ear_stapes_sensitivity": sens["ear_stapes"].tolist(),
-            "isolated_beta_sensitivity": sens["isolated_beta"],
-            "thevenin_beta_sensitivity": thev["ear_beta"].tolist(),
-            "force_driven_beta_sensitivity": thev["force_driven_beta"].tolist(),
-        })  # fmt: skip
+        rows.append(
+            {
+                "scaled": what,
+                "factor": factor,
+                "freq_hz": f.tolist(),
+                "env_ratio": lp["env_ratio"].tolist(),
+                "k_joint_n_m_per_rad_re_im": _ri(lp["k_joint"]),
+                "k_env_n_m_per_rad_re_im": _ri(lp["k_env"]),
+                "beta_rad_per_pa_re_im": _ri(lp["q"][:, 1]),
+                "beta_force_driven_rad_per_pa_re_im": _ri(lp["q_force_driven"][:, 1]),
+                "ear_beta_sensitivity": sens["ear_beta"].tolist(),
+                "ear_alpha_sensitivity": sens["ear_alpha"].tolist(),
+                "ear_stapes_sensitivity": sens["ear_stapes"].tolist(),
+                "isolated_beta_sensitivity": sens["isolated_beta"],
+                "thevenin_beta_sensitivity": thev["ear_beta"].tolist(),
+                "force_driven_beta_sensitivity": thev["force_driven_beta"].tolist(),
+            }
+        )
     return rows
 
 
@@ -199,13 +201,15 @@ def transmission_step(ctx) -> tuple[dict, dict]:
     share = np.column_stack([fe[c]["pedicle_share"] for c in cases])
     quote = []
     for i in quote_indices(f):
-        quote.append({
-            "freq_hz": float(f[i]),
-            "rigid_stapes_velocity_m_s_per_pa": [float(rigid_v[i].real), float(rigid_v[i].imag)],
-            "delta_db": {c: float(20 * np.log10(abs(delta[i, k]))) for k, c in enumerate(cases)},
-            "delta_deg": {c: float(np.degrees(np.angle(delta[i, k]))) for k, c in enumerate(cases)},
-            "pedicle_share_abs": {c: float(abs(share[i, k])) for k, c in enumerate(cases)},
-        })  # fmt: skip
+        quote.append(
+            {
+                "freq_hz": float(f[i]),
+                "rigid_stapes_velocity_m_s_per_pa": [float(rigid_v[i].real), float(rigid_v[i].imag)],
+                "delta_db": {c: float(20 * np.log10(abs(delta[i, k]))) for k, c in enumerate(cases)},
+                "delta_deg": {c: float(np.degrees(np.angle(delta[i, k]))) for k, c in enumerate(cases)},
+                "pedicle_share_abs": {c: float(abs(share[i, k])) for k, c in enumerate(cases)},
+            }
+        )
     worst = np.abs(20 * np.log10(np.abs(delta)))
     worst_deg = np.abs(np.degrees(np.angle(delta)))
     result = {
@@ -218,7 +222,7 @@ def transmission_step(ctx) -> tuple[dict, dict]:
         "worst_delta_deg": {c: float(worst_deg[:, k].max()) for k, c in enumerate(cases)},
         "cat": cat_comparison(cfg, f, fe, cases[0]),
         "damping": cfg.sweep.damping_model().to_dict(),
-    }  # fmt: skip
+    }
     arrays = {"freq_hz": f, "delta": delta, "pedicle_share": share}
     for name, cols in fe.items():
         for k in ("stapes_velocity_m_s", "umbo_velocity_m_s", "alpha_rad", "beta_rad"):
@@ -239,15 +243,21 @@ def load_path_step(ctx) -> tuple[dict, dict]:
     f = np.geomspace(t.fmin_hz, t.fmax_hz, t.n_freq)
     cases = list(t.cases)
     lumped = transmission(
-        f, [case_by_name(c) for c in cases], model=LumpedModel(ctx.calibration, cfg.geometry),
-        base=cfg.design.materials(), damping=cfg.sweep.damping_model(), ear_materials=cfg.ear,
-    )  # fmt: skip
+        f,
+        [case_by_name(c) for c in cases],
+        model=LumpedModel(ctx.calibration, cfg.geometry),
+        base=cfg.design.materials(),
+        damping=cfg.sweep.damping_model(),
+        ear_materials=cfg.ear,
+    )
     quote = []
     for i in quote_indices(f):
-        quote.append({
-            "freq_hz": float(f[i]),
-            "lumped_delta_db": {c: float(lumped.delta_db[i, k]) for k, c in enumerate(cases)},
-            "lumped_delta_deg": {c: float(lumped.delta_deg[i, k]) for k, c in enumerate(cases)},
-        })  # fmt: skip
+        quote.append(
+            {
+                "freq_hz": float(f[i]),
+                "lumped_delta_db": {c: float(lumped.delta_db[i, k]) for k, c in enumerate(cases)},
+                "lumped_delta_deg": {c: float(lumped.delta_deg[i, k]) for k, c in enumerate(cases)},
+            }
+        )
     result = {"cases": cases, "quote": quote, "load_path": load_path_study(ctx)}
     return result, {"freq_hz": f, "lumped_delta": lumped.delta}

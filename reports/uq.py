@@ -137,10 +137,15 @@ def uq_step(ctx) -> tuple[dict, dict]:
     cfg, u = ctx.config, ctx.config.uq
     lm = LumpedModel(ctx.calibration, cfg.geometry)
     domain = dict(ctx.calibration.domain)
-    config = UQConfig.default(domain, samples=u.samples, sobol_samples=u.sobol_samples,
-                              bootstrap=u.bootstrap, seed=u.seed)  # fmt: skip
-    r = run_uq(config, lumped_evaluator(lm, cfg.design.pressure_pa), pressure_pa=cfg.design.pressure_pa,
-               domain=domain)  # fmt: skip
+    config = UQConfig.default(
+        domain, samples=u.samples, sobol_samples=u.sobol_samples, bootstrap=u.bootstrap, seed=u.seed
+    )
+    r = run_uq(
+        config,
+        lumped_evaluator(lm, cfg.design.pressure_pa),
+        pressure_pa=cfg.design.pressure_pa,
+        domain=domain,
+    )
     out = r.to_dict()
     out.pop("time_s")  # the same inputs give the same JSON
     out["top_total"] = {k: r.top_total(k) for k in ("alpha_rad", "beta_rad", "beta_over_alpha")}

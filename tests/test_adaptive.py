@@ -102,9 +102,17 @@ def test_adaptive_loop_recovers_known_factors():
     alone = adaptive_fit(start, records, oracle, confirm, n_dense=256, max_rounds=0, refit_first=True, norm=2)
     assert alone.best["max_certified_error"] > 0.05 and not asked  # the start's designs are not enough
     res = adaptive_fit(
-        start, records, oracle, confirm, tolerance=1e-4, n_dense=256, per_round=4, max_rounds=8,
-        patience=8, norm=2,
-    )  # fmt: skip
+        start,
+        records,
+        oracle,
+        confirm,
+        tolerance=1e-4,
+        n_dense=256,
+        per_round=4,
+        max_rounds=8,
+        patience=8,
+        norm=2,
+    )
     first, best = res.history[0], res.best
     assert first["max_certified_error"] > 0.1  # the wrong start is far off at the corners
     assert len(res.history) >= 2  # designs had to be added
@@ -149,9 +157,17 @@ def test_adaptive_loop_stops_without_progress_and_keeps_the_best_round():
     truth, cal, oracle = _gap_skewed()
     records = oracle.records(sample(DesignSpace.from_dict(cal.domain), 32, seed=0))
     res = adaptive_fit(
-        cal, records, oracle, oracle.records, tolerance=0.01, n_dense=256, per_round=4, max_rounds=6,
-        patience=2, refit_first=True,
-    )  # fmt: skip
+        cal,
+        records,
+        oracle,
+        oracle.records,
+        tolerance=0.01,
+        n_dense=256,
+        per_round=4,
+        max_rounds=6,
+        patience=2,
+        refit_first=True,
+    )
     key = [(h["n_fail"], h["max_certified_error"]) for h in res.history]
     assert not res.reached and res.stop in ("no progress", "max rounds")
     assert (res.best["n_fail"], res.best["max_certified_error"]) == min(key)  # fewest failing, then worst

@@ -174,8 +174,21 @@ def test_load_and_corrupt_file(tmp_path):
 
 def test_chain_response_is_isj_sweep_bit_for_bit(lm, tmp_path):
     out = tmp_path / "sweep"
-    r = _cli("sweep", "--fe-checks", "0", "--n", "30", "--fmin-hz", "50", "--capsule-e", "80e6",
-             "--nu", "0.35", "--out", str(out))  # fmt: skip
+    r = _cli(
+        "sweep",
+        "--fe-checks",
+        "0",
+        "--n",
+        "30",
+        "--fmin-hz",
+        "50",
+        "--capsule-e",
+        "80e6",
+        "--nu",
+        "0.35",
+        "--out",
+        str(out),
+    )
     assert r.returncode == 0, r.stderr
     with np.load(out / "sweep.npz") as npz:
         freq, H = npz["freq_hz"], npz["response"]
@@ -267,8 +280,12 @@ def test_frequency_response_csv_and_dict_round_trip(tmp_path, make):
     for b in (back, FrequencyResponse.from_dict(json.loads(json.dumps(r.to_dict())))):
         assert np.array_equal(b.freq_hz, r.freq_hz) and np.array_equal(b.response, r.response)
         assert (b.output_names, b.output_units, b.input_names, b.input_units, b.input_amplitude) == (
-            r.output_names, r.output_units, r.input_names, r.input_units, r.input_amplitude,
-        )  # fmt: skip
+            r.output_names,
+            r.output_units,
+            r.input_names,
+            r.input_units,
+            r.input_amplitude,
+        )
     table = np.loadtxt(lines[3:], delimiter=",", ndmin=2)
     assert np.allclose(table[:, 3], np.abs(r.response[:, 0, 0]), rtol=1e-15)  # the _abs column
 
@@ -326,9 +343,16 @@ def test_fe_static_to_dict_keys_are_fem_solve_json(coarse_model):
     split = {f"{r}_{q}" for r in ("capsule", "gap") for q in ("shear_share", "shear_n", "moment_share")}
     split |= {"total_shear_n", "total_moment_nm"}
     assert set(d) <= set(cli) and set(cli) - set(d) - split == {
-        "n_tets", "n_dofs", "order", "resolution", "solver", "mesh_hash", "timings_s",
-        "joint", "layer_shear_pa",
-    }  # fmt: skip
+        "n_tets",
+        "n_dofs",
+        "order",
+        "resolution",
+        "solver",
+        "mesh_hash",
+        "timings_s",
+        "joint",
+        "layer_shear_pa",
+    }
     json.dumps(d, allow_nan=False)  # plain JSON
     assert d["alpha_rad"] == pytest.approx(cli["alpha_rad"], rel=1e-9)
     assert d["alpha_plus_beta_rad"] == d["alpha_rad"] + d["beta_rad"]

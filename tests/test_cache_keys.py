@@ -126,8 +126,12 @@ def test_changed_lumped_equation_recomputes_the_steps_that_use_it(report, tmp_pa
     env = dict(os.environ, PYTHONPATH=str(site), ISJ_FE_CACHE_DIR=str(report["fe_cache"]))
     proc = subprocess.run(
         [sys.executable, "-c", RUN_REPORT, str(report["case"]), str(tmp_path / "out")],
-        env=env, cwd=tmp_path, capture_output=True, text=True, timeout=600,
-    )  # fmt: skip
+        env=env,
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert proc.returncode == 0, proc.stderr[-3000:]
     got = json.loads(proc.stdout.strip().splitlines()[-1])
     assert Path(got["lumped_file"]).is_relative_to(site)  # the changed copy is what ran

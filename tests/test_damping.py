@@ -354,8 +354,12 @@ def test_cli_damping_options(tmp_path, capsys):
         summary["damping"]["loss_factor"]["gap"] == 0.2 and summary["damping"]["loss_factor"]["incus"] == 0.05
     )
     assert summary["damping"]["cochlear_impedance_pa_s_m3"] == 0.0  # the preset's
-    for bad in (["--loss-factor", "pedicel=0.1"], ["--rayleigh-a", "annular_ligament=1"],
-                ["--loss-factor", "gap=-1"], ["--damping", "rayleigh"]):  # fmt: skip
+    for bad in (
+        ["--loss-factor", "pedicel=0.1"],
+        ["--rayleigh-a", "annular_ligament=1"],
+        ["--loss-factor", "gap=-1"],
+        ["--damping", "rayleigh"],
+    ):
         assert main([*args[:-1], str(tmp_path / "t"), *bad]) == 2
         err = capsys.readouterr().err
         assert err.startswith("isj: error:") and len(err.strip().splitlines()) == 1

@@ -81,14 +81,26 @@ def cluster(tmp_path):
 
     def start(name, args):
         out = open(logs / f"{name}.log", "w")  # noqa: SIM115 - closed with the process
-        p = subprocess.Popen(args, env=env, cwd=tmp_path, stdout=out, stderr=subprocess.STDOUT,
-                             start_new_session=True)  # fmt: skip
+        p = subprocess.Popen(
+            args, env=env, cwd=tmp_path, stdout=out, stderr=subprocess.STDOUT, start_new_session=True
+        )
         procs.append(p)
         return p
 
     try:
-        start("scheduler", _dask("scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
-                                 "--scheduler-file", str(sched_file)))  # fmt: skip
+        start(
+            "scheduler",
+            _dask(
+                "scheduler",
+                "--host",
+                "127.0.0.1",
+                "--port",
+                "0",
+                "--no-dashboard",
+                "--scheduler-file",
+                str(sched_file),
+            ),
+        )
         deadline = time.monotonic() + START_TIMEOUT_S
         while not sched_file.exists() or not sched_file.read_text().strip():
             assert time.monotonic() < deadline, "dask scheduler did not start"
@@ -96,8 +108,20 @@ def cluster(tmp_path):
             time.sleep(0.1)
         address = json.loads(sched_file.read_text())["address"]
         for i in range(2):
-            start(f"worker{i}", _dask("worker", address, "--nthreads", "1", "--no-dashboard",
-                                      "--host", "127.0.0.1", "--name", f"w{i}"))  # fmt: skip
+            start(
+                f"worker{i}",
+                _dask(
+                    "worker",
+                    address,
+                    "--nthreads",
+                    "1",
+                    "--no-dashboard",
+                    "--host",
+                    "127.0.0.1",
+                    "--name",
+                    f"w{i}",
+                ),
+            )
         from distributed import Client
 
         with Client(address, timeout=START_TIMEOUT_S) as client:
@@ -135,8 +159,9 @@ def test_cluster_matches_local_pool_and_a_killed_worker_costs_only_its_unfinishe
 
     def run():
         try:
-            outcome["records"] = run_geometry_designs(ITEMS, evaluate, settings, tmp_path / "dask",
-                                                      scheduler=address, progress=False)  # fmt: skip
+            outcome["records"] = run_geometry_designs(
+                ITEMS, evaluate, settings, tmp_path / "dask", scheduler=address, progress=False
+            )
         except BaseException as exc:  # reported by the main thread
             outcome["error"] = exc
 
@@ -182,5 +207,7 @@ def test_cluster_matches_local_pool_and_a_killed_worker_costs_only_its_unfinishe
         ITEMS, evaluate, settings, tmp_path / "dask", scheduler=address, progress=False
     )
     assert again == local and len(_log(log)) == len(events)
-    print(f"\n{len(ITEMS)} designs: pool {t_pool:.1f} s, cluster {t_dask:.1f} s with one worker killed, "
-          f"{sum(starts.values())} solves")  # fmt: skip
+    print(
+        f"\n{len(ITEMS)} designs: pool {t_pool:.1f} s, cluster {t_dask:.1f} s with one worker killed, "
+        f"{sum(starts.values())} solves"
+    )

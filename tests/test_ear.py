@@ -296,8 +296,6 @@ def _ear_dynamics():
     return ear_dynamics
 
 
-
-
 def _expected_total_mass(model, materials=None):
     """ρ t A of the drum, the two bodies' masses (the footplate is part of the 0.5 mg stapes), ρ V of
     the joint's regions."""

@@ -109,8 +109,9 @@ def test_out_files_recomputed_independently(cli, rom, tmp_path):
     out = tmp_path / "out"
     ranged = {"--gap-e": "1e6:1e8", "--capsule-e": "1e7:3e8", "--plate-e": "3e8:5e9"}  # gap past the domain
     argv = [x for kv in ranged.items() for x in kv]
-    code, stdout, err = cli(*argv, "--n", "3", "--spot-checks", "2", "--guard-sample", "256",
-                            "--out", str(out), "--json")  # fmt: skip
+    code, stdout, err = cli(
+        *argv, "--n", "3", "--spot-checks", "2", "--guard-sample", "256", "--out", str(out), "--json"
+    )
     assert cli.asked == [(ORDER, RESOLUTION, 12e9)]
     summary = json.loads(stdout)
     assert code == 1  # the lumped model (fitted to P2) fails the guard on this P1 mesh
@@ -132,8 +133,9 @@ def test_out_files_recomputed_independently(cli, rom, tmp_path):
     for k, lk in (("alpha_rad", la), ("beta_rad", lb), ("beta_over_alpha", lb / la)):
         stem = k.removesuffix("_rad")
         np.testing.assert_allclose(_floats(t[f"surrogate_{k}"])[inside], ev[k], rtol=1e-13)
-        np.testing.assert_allclose(_floats(t[f"{stem}_rel_error"])[inside], lk[inside] / ev[k] - 1, rtol=1e-9,
-                                   atol=1e-15)  # fmt: skip
+        np.testing.assert_allclose(
+            _floats(t[f"{stem}_rel_error"])[inside], lk[inside] / ev[k] - 1, rtol=1e-9, atol=1e-15
+        )
         b = G.GUARDED[k]
         lo, hi = ev[k] - ev[b], ev[k] + ev[b]
         cert = np.maximum(np.abs(lk[inside] / lo - 1), np.abs(lk[inside] / hi - 1))
@@ -180,22 +182,59 @@ def test_out_files_recomputed_independently(cli, rom, tmp_path):
 def test_sample_maps_and_a_passing_run(cli, tmp_path):
     out = tmp_path / "out"
     # a tolerance this P1 mesh's lumped errors meet: exit 0; a sample gives scatter maps
-    code, stdout, _ = cli("--pedicle-e", "1e9:27e9", "--stapes-e", "3e8:5e9", "--sample", "40",
-                          "--spot-checks", "0", "--guard-sample", "16", "--tolerance", "10",
-                          "--out", str(out), "--json")  # fmt: skip
+    code, stdout, _ = cli(
+        "--pedicle-e",
+        "1e9:27e9",
+        "--stapes-e",
+        "3e8:5e9",
+        "--sample",
+        "40",
+        "--spot-checks",
+        "0",
+        "--guard-sample",
+        "16",
+        "--tolerance",
+        "10",
+        "--out",
+        str(out),
+        "--json",
+    )
     d = json.loads(stdout)
     assert code == 0 and d["passed"] and d["guard"]["explored"]["n_ok"] == 40
     assert [p.name for p in out.glob("map_*.png")] == ["map_pedicle_stapes.png"]
     # one ranged modulus: no pair, no map; text output keeps its summary line
-    code, stdout, _ = cli("--gap-e", "1e6:5e7", "--n", "3", "--spot-checks", "0", "--guard-sample", "0",
-                          "--tolerance", "10", "--out", str(out))  # fmt: skip
+    code, stdout, _ = cli(
+        "--gap-e",
+        "1e6:5e7",
+        "--n",
+        "3",
+        "--spot-checks",
+        "0",
+        "--guard-sample",
+        "0",
+        "--tolerance",
+        "10",
+        "--out",
+        str(out),
+    )
     assert code == 0 and stdout.startswith("lumped model: 3 designs")
     assert "dense   : 0/0 ok" in stdout and not list(out.glob("map_*.png"))
 
 
 def test_ranged_incus_is_outside_the_surrogate(cli):
-    code, stdout, _ = cli("--incus-e", "6e9:24e9", "--n", "3", "--spot-checks", "0", "--guard-sample", "0",
-                          "--tolerance", "10", "--json")  # fmt: skip
+    code, stdout, _ = cli(
+        "--incus-e",
+        "6e9:24e9",
+        "--n",
+        "3",
+        "--spot-checks",
+        "0",
+        "--guard-sample",
+        "0",
+        "--tolerance",
+        "10",
+        "--json",
+    )
     g = json.loads(stdout)["guard"]
     assert code == 0 and g["explored"]["n_outside"] == 2 and g["explored"]["n"] == 3  # 12 GPa is inside
 
@@ -228,8 +267,22 @@ def test_without_gmsh_the_guard_says_so(cache, monkeypatch, capsys, tmp_path):
     """No gmsh and no cached mesh: the guard is reported unavailable, the run goes on."""
     monkeypatch.setitem(sys.modules, "gmsh", None)
     monkeypatch.setenv("ISJ_CACHE_DIR", str(tmp_path / "meshes"))  # an empty mesh cache
-    code = main(["explore", "--order", "1", "--resolution", "0.3", "--gap-e", "1e6:5e7", "--n", "3",
-                 "--spot-checks", "0", "--json"])  # fmt: skip
+    code = main(
+        [
+            "explore",
+            "--order",
+            "1",
+            "--resolution",
+            "0.3",
+            "--gap-e",
+            "1e6:5e7",
+            "--n",
+            "3",
+            "--spot-checks",
+            "0",
+            "--json",
+        ]
+    )
     out, err = capsys.readouterr()
     g = json.loads(out)["guard"]
     assert code == 0 and g["available"] is False and "gmsh" in g["reason"]

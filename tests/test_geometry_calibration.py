@@ -197,8 +197,9 @@ def test_cli_lumped_solve_accepts_geometry_inside_and_warns_outside(capsys):
     code, base, _ = run(capsys, ["lumped", "solve", "--json"])
     assert code == 0 and base != out  # the geometry changes the answer
     # the default calibration with another geometry: outside (it holds for its own only)
-    code, _, err = run(capsys, ["lumped", "solve", "--geometry", "pedicle_x_m=60e-6", "--calibration",
-                                str(_default_path())])  # fmt: skip
+    code, _, err = run(
+        capsys, ["lumped", "solve", "--geometry", "pedicle_x_m=60e-6", "--calibration", str(_default_path())]
+    )
     assert code == 0 and "pedicle_x_m" in err
 
 

@@ -131,8 +131,15 @@ def test_condensation_of_a_general_system():
         A[nc:, nc:] = np.diag(np.diag(A[nc:, nc:]))
         return scale * A
 
-    s = SecondOrderModel(M=spd(1.0), E=spd(0.01), K=spd(1e4), B=rng.normal(size=(n, 2)),
-                         C=rng.normal(size=(3, n)), K_loss=spd(1e2), loss_factor=0.02)  # fmt: skip
+    s = SecondOrderModel(
+        M=spd(1.0),
+        E=spd(0.01),
+        K=spd(1e4),
+        B=rng.normal(size=(n, 2)),
+        C=rng.normal(size=(3, n)),
+        K_loss=spd(1e2),
+        loss_factor=0.02,
+    )
     f = np.geomspace(0.1, 100.0, 17)
     np.testing.assert_allclose(freq_resp(s, slice(nc, n), f), s.freq_resp(f), rtol=1e-10, atol=1e-14)
     couple = np.zeros((n, n))

@@ -37,13 +37,19 @@ COARSE = {"order": 1, "resolution": 0.35}
 #: seed 0, P2, resolution 1): lumped/data/default_calibration.json at 4211de0^ (format 3, shipped
 #: until the adaptive format-5 one replaced it; ``root_plate`` and ``pedicle_face`` absent, 0).
 LIKE_FOR_LIKE_BONDED = {
-    "pedicle_bending": 0.9818618869125215, "pedicle_root": 5.176428129244652,
-    "pedicle_top": 2.9633531293425284, "root_foundation": 0.06752188983383768,
-    "gap": 1.2332578064919701, "capsule": 0.45057074575182776, "attachment_plate": 0.07119442369789107,
-    "attachment_stapes": 0.2210446599043687, "plate_bulk": 6.799652456323045,
-    "stapes_bulk": 0.3397944443619824, "plate_support": 0.05207451161127774,
+    "pedicle_bending": 0.9818618869125215,
+    "pedicle_root": 5.176428129244652,
+    "pedicle_top": 2.9633531293425284,
+    "root_foundation": 0.06752188983383768,
+    "gap": 1.2332578064919701,
+    "capsule": 0.45057074575182776,
+    "attachment_plate": 0.07119442369789107,
+    "attachment_stapes": 0.2210446599043687,
+    "plate_bulk": 6.799652456323045,
+    "stapes_bulk": 0.3397944443619824,
+    "plate_support": 0.05207451161127774,
     "load_sharing": 4.564466488602948,
-}  # fmt: skip
+}
 
 
 @pytest.fixture
@@ -81,8 +87,10 @@ def test_bonded_and_sliding_never_share_a_cache_entry(tmp_path):
 
     design = {"gap_e_pa": 5e6, "capsule_e_pa": 2e7}  # a soft capsule: the joint matters (c20-like)
     settings = {j: batch.fe_settings(**COARSE, joint=j) for j in ("bonded", "sliding")}
-    recs = {j: run_designs([design], batch.evaluate_design, s, tmp_path, max_workers=0, progress=False)[0]
-            for j, s in settings.items()}  # fmt: skip
+    recs = {
+        j: run_designs([design], batch.evaluate_design, s, tmp_path, max_workers=0, progress=False)[0]
+        for j, s in settings.items()
+    }
     assert recs["bonded"]["key"] != recs["sliding"]["key"]
     assert len(list(tmp_path.glob("*.json"))) == 2
     # each record is its joint's FE model, bit for bit (the joint reached the model)
@@ -93,8 +101,9 @@ def test_bonded_and_sliding_never_share_a_cache_entry(tmp_path):
         assert rec["result"]["beta_rad"] == res.beta_rad
     assert recs["bonded"]["result"]["alpha_rad"] != recs["sliding"]["result"]["alpha_rad"]
     # a second run reads the cache: same records, no new file
-    again = run_designs([design], batch.evaluate_design, settings["sliding"], tmp_path, max_workers=0,
-                        progress=False)  # fmt: skip
+    again = run_designs(
+        [design], batch.evaluate_design, settings["sliding"], tmp_path, max_workers=0, progress=False
+    )
     assert again[0] == recs["sliding"] and len(list(tmp_path.glob("*.json"))) == 2
 
 
@@ -159,9 +168,22 @@ def _case_moduli() -> dict[str, np.ndarray]:
 
 def _lumped_cases(joint: str) -> tuple[np.ndarray, np.ndarray]:
     lm = LumpedModel.default(joint=joint)
-    r = lm.static([{k: getattr(c.materials(), k) for k in ("pedicle_e_pa", "gap_e_pa", "capsule_e_pa",
-                                                           "plate_e_pa", "stapes_e_pa", "incus_e_pa")}
-                   for c in THESIS_CASES])  # fmt: skip
+    r = lm.static(
+        [
+            {
+                k: getattr(c.materials(), k)
+                for k in (
+                    "pedicle_e_pa",
+                    "gap_e_pa",
+                    "capsule_e_pa",
+                    "plate_e_pa",
+                    "stapes_e_pa",
+                    "incus_e_pa",
+                )
+            }
+            for c in THESIS_CASES
+        ]
+    )
     return r.alpha_rad, r.beta_rad
 
 
@@ -251,9 +273,12 @@ def test_bonded_equations_unchanged_bit_for_bit():
     assert PLATE_SUPPORT_EXPONENT == {"bonded": 0.75, "sliding": 0.25}
     f = np.array([LIKE_FOR_LIKE_BONDED.get(n, 0.0) for n in FACTOR_NAMES])
     f[FACTOR_NAMES.index("pedicle_face")], f[FACTOR_NAMES.index("root_plate")] = 0.3, 1.3
-    E = moduli_arrays(gap_e_pa=np.array([1e6, 4.3e7, 5e7, 2e7]), plate_e_pa=np.array([5e9, 4e8, 3e8, 1e9]),
-                      capsule_e_pa=np.array([3e8, 1.2e7, 1e7, 1e8]),
-                      pedicle_e_pa=np.array([2.7e10, 1e9, 5e9, 1e10]))  # fmt: skip
+    E = moduli_arrays(
+        gap_e_pa=np.array([1e6, 4.3e7, 5e7, 2e7]),
+        plate_e_pa=np.array([5e9, 4e8, 3e8, 1e9]),
+        capsule_e_pa=np.array([3e8, 1.2e7, 1e7, 1e8]),
+        pedicle_e_pa=np.array([2.7e10, 1e9, 5e9, 1e10]),
+    )
     geometries = {
         "default": Geometry(),
         "thin_plate": Geometry().replace(plate_thickness_m=5e-5, gap_thickness_m=4e-5),
@@ -315,8 +340,9 @@ def test_sliding_chain_drops_the_gap_shear():
 
     f_sl = sl.natural_frequencies_hz()
     f_bo = chain_model(sl.factors, sl.shear_factor, rayleigh_b_s=0.0, joint="bonded").poles()[0]
-    np.testing.assert_array_equal(f_sl, chain_model(sl.factors, sl.shear_factor, rayleigh_b_s=0.0,
-                                                    joint="sliding").poles()[0])  # fmt: skip
+    np.testing.assert_array_equal(
+        f_sl, chain_model(sl.factors, sl.shear_factor, rayleigh_b_s=0.0, joint="sliding").poles()[0]
+    )
     assert f_sl[1] < 0.8 * f_bo[1]
 
 
@@ -372,8 +398,12 @@ def test_held_out_errors_as_claimed(tmp_path):
     cal = sliding_calibration()
     fs = cal.fe_settings
     settings = batch.fe_settings(order=fs["order"], resolution=fs["resolution"], joint="sliding")
-    held = sample(DesignSpace.from_dict(cal.domain), cal.provenance["validation_samples"],
-                  cal.provenance["seed"] + 1, method="lhs")[:3]  # fmt: skip
+    held = sample(
+        DesignSpace.from_dict(cal.domain),
+        cal.provenance["validation_samples"],
+        cal.provenance["seed"] + 1,
+        method="lhs",
+    )[:3]
     recs = run_designs(held, batch.evaluate_design, settings, tmp_path, max_workers=0, progress=False)
     e = error_stats(cal.factor_array(), records_for_fit(recs), joint="sliding")
     assert e["max_alpha"] <= cal.validation["max_alpha"] + 1e-9
@@ -431,8 +461,11 @@ def test_held_out_frequencies_as_claimed(tmp_path):
 
     cal = sliding_calibration()
     fs = cal.fe_settings
-    settings = dict(batch.fe_settings(order=fs["order"], resolution=fs["resolution"], joint="sliding"),
-                    kind="modes", n_modes=6)  # fmt: skip
+    settings = dict(
+        batch.fe_settings(order=fs["order"], resolution=fs["resolution"], joint="sliding"),
+        kind="modes",
+        n_modes=6,
+    )
     held = sample(DesignSpace.from_dict(cal.domain), 8, cal.provenance["seed"] + 101, method="lhs")[:2]
     recs = run_designs(held, batch.evaluate_modes, settings, tmp_path, max_workers=0, progress=False)
     fe = np.array([r["result"]["in_plane_freq_hz"][:2] for r in recs])

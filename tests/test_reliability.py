@@ -59,8 +59,11 @@ def test_gmsh_between_two_factorizations_does_not_crash(tmp_path):
     env = _clean_env(tmp_path, **{solvers.SOLVER_THREADS_ENV: "2"})
     run = subprocess.run(
         [sys.executable, "-c", _MINIMAL_SEQUENCE, str(path)],
-        env=env, capture_output=True, text=True, timeout=600,
-    )  # fmt: skip
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert run.returncode == 0, f"exit {run.returncode}: {run.stderr[-2000:]}"
     first, again, other = run.stdout.split()
     # gmsh in between changes nothing in the solver: the same materials give the same bits
@@ -231,8 +234,18 @@ def test_report_with_another_stack_height_completes_and_a_failed_run_leaves_the_
     monkeypatch.setattr(run, "STEPS", steps)
     summary = run.run_report(other, out, verbosity=0)
     # every step that does not read the [ear] section comes from the cache
-    assert summary["cached"] == ["model", "cases", "trends", "convergence", "calibration", "sweep", "sliding",
-                                 "guard", "uq", "geometry_trends"]
+    assert summary["cached"] == [
+        "model",
+        "cases",
+        "trends",
+        "convergence",
+        "calibration",
+        "sweep",
+        "sliding",
+        "guard",
+        "uq",
+        "geometry_trends",
+    ]
     after = _snapshot(out)
     assert after["data/model.json"] == before["data/model.json"]
     assert after["data/ear.json"] != before["data/ear.json"]

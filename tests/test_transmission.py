@@ -48,8 +48,10 @@ def test_force_driven_angles_solve_the_joint_alone(lm):
 
 def test_delta_hv_tends_to_one_as_the_joint_stiffens(lm):
     base = Materials()
-    stiff = {k: getattr(base, k) * 1e6 for k in ("pedicle_e_pa", "gap_e_pa", "capsule_e_pa", "plate_e_pa",
-                                                 "stapes_e_pa", "incus_e_pa")}  # fmt: skip
+    stiff = {
+        k: getattr(base, k) * 1e6
+        for k in ("pedicle_e_pa", "gap_e_pa", "capsule_e_pa", "plate_e_pa", "stapes_e_pa", "incus_e_pa")
+    }
     soft = [ThesisCase("soft", base.pedicle_e_pa, base.gap_e_pa, base.capsule_e_pa)]
     hard = [ThesisCase("stiff", stiff["pedicle_e_pa"], stiff["gap_e_pa"], stiff["capsule_e_pa"])]
     r_soft = transmission(FREQ, soft, model=lm, drum_modes=40)

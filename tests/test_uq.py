@@ -221,8 +221,12 @@ def test_config_file_and_out_folder(tmp_path, capsys):
     assert d["distributions"]["gap_e_pa"]["sigma_ln"] == pytest.approx(math.log(1.3))
     assert "stapes_e_pa" not in d["sobol"]["alpha_rad"]["ST"]
     assert sorted(p.name for p in out.iterdir()) == [
-        "histograms.csv", "quantiles.csv", "sobol.csv", "uq.json", "uq.png"
-    ]  # fmt: skip
+        "histograms.csv",
+        "quantiles.csv",
+        "sobol.csv",
+        "uq.json",
+        "uq.png",
+    ]
     rec = json.loads((out / "uq.json").read_text())["results"]
     assert rec["p_beta_over_alpha_gt_1"] == d["p_beta_over_alpha_gt_1"]
     hist = rec["histograms"]["beta_over_alpha"]

@@ -177,7 +177,7 @@ def test_explore_checks_its_picks(cal, tmp_path):
 def test_fe_check_frequencies_inside_the_band():
     f = fe_check_frequencies(100.0, 10e3, 3)
     assert f.size == 3 and 100 < f[0] and f[-1] < 10e3
-    np.testing.assert_allclose(f[1:] / f[:-1], 10 ** 0.5, rtol=1e-12)  # log-spaced, quarter decades
+    np.testing.assert_allclose(f[1:] / f[:-1], 10**0.5, rtol=1e-12)  # log-spaced, quarter decades
     assert fe_check_frequencies(100.0, 10e3, 0).size == 0
     with pytest.raises(InvalidParameter):
         fe_check_frequencies(10e3, 100.0, 2)

@@ -122,9 +122,15 @@ def drum_modes(
     # the fixed-interface modes: shift-invert about 0 with the interior's own factor
     opinv = LinearOperator(Kff.shape, matvec=lu.solve, dtype=float)
     w2, vec = eigsh(
-        Kff, k=int(n_modes), M=Mff, sigma=0.0, which="LM", OPinv=opinv, tol=1e-12,
+        Kff,
+        k=int(n_modes),
+        M=Mff,
+        sigma=0.0,
+        which="LM",
+        OPinv=opinv,
+        tol=1e-12,
         v0=lanczos_start(free.size),  # fixed: the same modes on every run
-    )  # fmt: skip
+    )
     order = np.argsort(w2)
     w2, vec = w2[order], vec[:, order]
     vec /= np.sqrt(np.einsum("im,im->m", vec, Mff @ vec))  # φᵀMφ = 1 to rounding

@@ -156,11 +156,21 @@ def full_mass(
     x_stapes = np.asarray(g.stapes_head_m) if model.joint is not None else x_body
     st = stapes_rigid_mass(model, em, ms)
     blocks = (
-        (model.body_dofs, w["incus"] * rigid_mass(ms.malleus_incus_kg, ms.malleus_incus_gyration_m,
-                                                  ms.malleus_incus_centroid(g), x_body)),
-        (model.stapes_dofs, w["stapes"] * rigid_mass(st["superstructure_kg"], ms.stapes_gyration_m,
-                                                     st["superstructure_centroid_m"], x_stapes)),
-    )  # fmt: skip
+        (
+            model.body_dofs,
+            w["incus"]
+            * rigid_mass(
+                ms.malleus_incus_kg, ms.malleus_incus_gyration_m, ms.malleus_incus_centroid(g), x_body
+            ),
+        ),
+        (
+            model.stapes_dofs,
+            w["stapes"]
+            * rigid_mass(
+                st["superstructure_kg"], ms.stapes_gyration_m, st["superstructure_centroid_m"], x_stapes
+            ),
+        ),
+    )
     for dofs, M6 in blocks:
         rows.append(np.repeat(dofs, 6))
         cols.append(np.tile(dofs, 6))

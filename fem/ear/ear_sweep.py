@@ -59,9 +59,17 @@ SHELLS = ("eardrum", "footplate")
 
 #: Outputs of :meth:`ReducedEar.response`, per Pa of ear-canal pressure, and their units.
 OUTPUTS = (
-    "stapes_velocity_m_s", "umbo_velocity_m_s", "stapes_m", "umbo_m", "footplate_piston_m",
-    "footplate_rocking_long_rad", "footplate_rocking_short_rad", "alpha_rad", "beta_rad", "pedicle_share",
-)  # fmt: skip
+    "stapes_velocity_m_s",
+    "umbo_velocity_m_s",
+    "stapes_m",
+    "umbo_m",
+    "footplate_piston_m",
+    "footplate_rocking_long_rad",
+    "footplate_rocking_short_rad",
+    "alpha_rad",
+    "beta_rad",
+    "pedicle_share",
+)
 UNITS = ("m/s", "m/s", "m", "m", "m", "rad", "rad", "rad", "rad", "1")
 
 #: Shifts per kHz of f_max (:func:`shell_basis`): 20 shifts to 24 kHz gave 1e-6, 15 gave 3e-2.
@@ -339,8 +347,18 @@ def reduced_ear(
     else:
         n = model.n_dofs
         z = np.zeros((0, 0))
-        level1 = CondensedEar(parts.stiffness, parts.mass, parts.dashpots, parts.load, np.arange(n),
-                              np.zeros(0, int), np.zeros(0, int), z, z, n)  # fmt: skip
+        level1 = CondensedEar(
+            parts.stiffness,
+            parts.mass,
+            parts.dashpots,
+            parts.load,
+            np.arange(n),
+            np.zeros(0, int),
+            np.zeros(0, int),
+            z,
+            z,
+            n,
+        )
     t2 = time.perf_counter()
     V, info = shell_basis(level1, fmax_hz, n_shifts)
     t3 = time.perf_counter()
@@ -370,8 +388,11 @@ def reduced_ear(
             asym = max(asym, abs(P - P.T).max() / max(abs(P).max(), 1e-300))
             g[name] = 0.5 * (P + P.T)  # symmetric to rounding, as every part
     k = info["kept_dofs"]
-    off = max(np.abs(P[k:, k:] - np.diag(np.diagonal(P[k:, k:]))).max(initial=0.0) / max(abs(P).max(), 1e-300)
-              for g in groups.values() for P in g.values())  # fmt: skip
+    off = max(
+        np.abs(P[k:, k:] - np.diag(np.diagonal(P[k:, k:]))).max(initial=0.0) / max(abs(P).max(), 1e-300)
+        for g in groups.values()
+        for P in g.values()
+    )
     out = ReducedEar(
         **groups,
         load=load,
@@ -413,8 +434,16 @@ def check_frequencies_hz(fmin_hz: float, fmax_hz: float, n: int = 3) -> np.ndarr
     return np.geomspace(fmin_hz, fmax_hz, n) if n > 1 else np.array([fmax_hz], float)[:n]
 
 
-def check_against_direct(model, rom: ReducedEar, freq_hz, damping=None, materials=None, ear_materials=None,
-                         masses=None, tolerance=CHECK_TOLERANCE) -> dict:  # fmt: skip
+def check_against_direct(
+    model,
+    rom: ReducedEar,
+    freq_hz,
+    damping=None,
+    materials=None,
+    ear_materials=None,
+    masses=None,
+    tolerance=CHECK_TOLERANCE,
+) -> dict:
     """The reduced model against direct FE harmonic solves (:func:`fem.ear.ear_dynamics.harmonic`).
 
     Returns
@@ -467,8 +496,15 @@ def agreement_limit_hz(freq_hz, a, b, tol_db: float = 1.0) -> tuple[float | None
     return (float(f[bad[0] - 1]) if bad[0] > 0 else None), diff
 
 
-def drum_mesh_convergence(joint, freq_hz, drum_mesh_sizes_m=(0.25e-3, 0.125e-3), damping=None,
-                          tol_db: float = 1.0, check_hz=(), **reduce_kw) -> dict:  # fmt: skip
+def drum_mesh_convergence(
+    joint,
+    freq_hz,
+    drum_mesh_sizes_m=(0.25e-3, 0.125e-3),
+    damping=None,
+    tol_db: float = 1.0,
+    check_hz=(),
+    **reduce_kw,
+) -> dict:
     """H_V on two eardrum meshes (the joint model the same) and up to where they agree within ``tol_db``.
 
     Returns
@@ -492,6 +528,14 @@ def drum_mesh_convergence(joint, freq_hz, drum_mesh_sizes_m=(0.25e-3, 0.125e-3),
             checks.append(check_against_direct(model, rom, check_hz, damping))
         del model, rom
     f_ok, diff = agreement_limit_hz(freqs, h[1], h[0], tol_db)
-    return {"freq_hz": freqs, "h_v": h, "diff_db": diff, "agree_up_to_hz": f_ok, "tol_db": tol_db,
-            "drum_mesh_sizes_m": tuple(drum_mesh_sizes_m), "n_dofs": n_dofs, "seconds": secs,
-            "checks": checks}  # fmt: skip
+    return {
+        "freq_hz": freqs,
+        "h_v": h,
+        "diff_db": diff,
+        "agree_up_to_hz": f_ok,
+        "tol_db": tol_db,
+        "drum_mesh_sizes_m": tuple(drum_mesh_sizes_m),
+        "n_dofs": n_dofs,
+        "seconds": secs,
+        "checks": checks,
+    }

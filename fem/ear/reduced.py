@@ -304,8 +304,13 @@ class CondensedEar:
         return out
 
 
-def condense_joint(parts: EarParts, model, enrich: tuple[str, ...] = ("mass", "damping", "cross"),
-                   tol: float = 1e-10, backend: str = "auto") -> CondensedEar:  # fmt: skip
+def condense_joint(
+    parts: EarParts,
+    model,
+    enrich: tuple[str, ...] = ("mass", "damping", "cross"),
+    tol: float = 1e-10,
+    backend: str = "auto",
+) -> CondensedEar:
     """Condense the joint model's interior onto the two rigid bodies (module docstring).
 
     Parameters
@@ -386,8 +391,13 @@ def condense_joint(parts: EarParts, model, enrich: tuple[str, ...] = ("mass", "d
         mass={k: level1(k, A) for k, A in parts.mass.items()},
         dashpots={k: level1(k, A) for k, A in parts.dashpots.items()},
         load=load,
-        R=R, J=J, b=b, psi=psi, phi=phi, n_q=fq.size,
-    )  # fmt: skip
+        R=R,
+        J=J,
+        b=b,
+        psi=psi,
+        phi=phi,
+        n_q=fq.size,
+    )
     out.timings_s = {"factor": t1 - t0, "solves": t2 - t1, "project": time.perf_counter() - t2}
     return out
 

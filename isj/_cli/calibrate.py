@@ -107,11 +107,21 @@ def _adaptive(args, settings, cache, rom):
 
     log = None if args.quiet else (lambda line: print(f"isj: adaptive {line}", flush=True))
     return calibrate_adaptive(
-        evaluate_design, settings, cache, rom, samples=args.samples, validation=args.validation,
-        seed=args.seed, scheduler=args.scheduler, progress=not args.quiet, log=log,
-        tolerance=args.tolerance, n_dense=args.guard_sample, per_round=args.per_round,
+        evaluate_design,
+        settings,
+        cache,
+        rom,
+        samples=args.samples,
+        validation=args.validation,
+        seed=args.seed,
+        scheduler=args.scheduler,
+        progress=not args.quiet,
+        log=log,
+        tolerance=args.tolerance,
+        n_dense=args.guard_sample,
+        per_round=args.per_round,
         max_rounds=args.rounds,
-    )  # fmt: skip
+    )
 
 
 def calibrate(args) -> int:
@@ -138,8 +148,10 @@ def calibrate(args) -> int:
         from .explore import load_surrogate
 
         if args.geometry_domain or args.joint != "bonded":
-            raise UsageError("--adaptive: the surrogate covers the bonded joint on one geometry; "
-                             "drop --geometry-domain and --joint")  # fmt: skip
+            raise UsageError(
+                "--adaptive: the surrogate covers the bonded joint on one geometry; "
+                "drop --geometry-domain and --joint"
+            )
         rom, why = load_surrogate(args.order, args.resolution)  # minutes on a mesh's first build
         if rom is None:
             return c.fail(f"--adaptive needs the certified surrogate: {why}")

@@ -134,8 +134,10 @@ def solve(args) -> int:
         return 0
     print("\n".join(_ear_lines("whole ear, per Pa of ear-canal pressure", res)))
     ax = res.rotation_axis
-    print(f"  axis: point {[round(v * 1e3, 4) for v in ax['point_m']]} mm, "
-          f"direction {[round(v, 4) for v in ax['direction']]}")  # fmt: skip
+    print(
+        f"  axis: point {[round(v * 1e3, 4) for v in ax['point_m']]} mm, "
+        f"direction {[round(v, 4) for v in ax['direction']]}"
+    )
     print(f"  {model.n_dofs} dofs, solve {res.timings_s['total']:.2f} s")
     return 0
 
@@ -366,9 +368,15 @@ def _fe_sweep(args) -> int:
         "static_stapes_m_per_pa": float(static["footplate"] @ rom.piston_direction),
         "checks": chk,
         "passed": chk["passed"],
-        "timings_s": {"model": t1 - t0, "reduction": t2 - t1, "sweep": t3 - t2,
-                      "per_frequency": (t3 - t2) / args.n, "checks": t4 - t3, "total": t4 - t0},
-    }  # fmt: skip
+        "timings_s": {
+            "model": t1 - t0,
+            "reduction": t2 - t1,
+            "sweep": t3 - t2,
+            "per_frequency": (t3 - t2) / args.n,
+            "checks": t4 - t3,
+            "total": t4 - t0,
+        },
+    }
     c.check_finite(summary | {"response": H}, c.design_inputs(args))
     with replace_dir(out) as staging:  # the four files appear together or not at all
         _write_fe(args, staging, freqs, H, names, [resp.unit(k) for k in names], chk)
@@ -386,8 +394,10 @@ def _fe_sweep(args) -> int:
             worst = max(v for k, v in ck.items() if k.endswith("_mag_rel_error"))
             ph = max(v for k, v in ck.items() if k.endswith("_phase_error_deg"))
             verdict = "ok" if ck["passed"] else "EXCEEDS 1 % / 1 deg"
-            print(f"  check at {ck['freq_hz']:.0f} Hz against a direct FE solve: {100 * worst:.2g} %, "
-                  f"{ph:.2g} deg {verdict}")  # fmt: skip
+            print(
+                f"  check at {ck['freq_hz']:.0f} Hz against a direct FE solve: {100 * worst:.2g} %, "
+                f"{ph:.2g} deg {verdict}"
+            )
         print(f"wrote {out}/ear_sweep.csv, ear_sweep.npz, ear_bode.png, ear_sweep.json")
     if not chk["passed"]:
         return c.fail("the reduced FE ear differs from a direct FE solve by more than 1 % or 1 deg")
@@ -409,13 +419,22 @@ def _write_fe(args, out, freqs, H, names, units, chk) -> None:
     keys = [k for k in ("umbo_m", "stapes_m", "alpha_rad", "beta_rad") if f"direct_{k}" in chk["checks"][0]]
     direct = np.array([[complex(*ck[f"direct_{k}"]) for k in keys] for ck in chk["checks"]])
     f_chk = np.array([ck["freq_hz"] for ck in chk["checks"]])
-    write_npz(out / "ear_sweep.npz", freq_hz=freqs, response_per_pa=H, outputs=np.array(names),
-              units=np.array(units), check_freq_hz=f_chk, check_outputs=np.array(keys),
-              check_direct_per_pa=direct)  # fmt: skip
+    write_npz(
+        out / "ear_sweep.npz",
+        freq_hz=freqs,
+        response_per_pa=H,
+        outputs=np.array(names),
+        units=np.array(units),
+        check_freq_hz=f_chk,
+        check_outputs=np.array(keys),
+        check_direct_per_pa=direct,
+    )
     fig = Figure(figsize=(7, 6))  # a Figure of its own: no pyplot state, no backend chosen
     ax_mag, ax_ph = fig.subplots(2, 1, sharex=True)
-    for key, direct_key, label in (("stapes_velocity_m_s", "stapes_m", "stapes H_V"),
-                                   ("umbo_velocity_m_s", "umbo_m", "umbo")):  # fmt: skip
+    for key, direct_key, label in (
+        ("stapes_velocity_m_s", "stapes_m", "stapes H_V"),
+        ("umbo_velocity_m_s", "umbo_m", "umbo"),
+    ):
         h = H[:, names.index(key)]
         (line,) = ax_mag.loglog(freqs, np.abs(h), label=f"{label}, reduced FE")
         ph = np.unwrap(np.angle(h))
@@ -423,8 +442,13 @@ def _write_fe(args, out, freqs, H, names, units, chk) -> None:
         v = 2j * np.pi * f_chk * direct[:, keys.index(direct_key)]
         ax_mag.plot(f_chk, np.abs(v), "o", mfc="none", color=line.get_color(), label=f"{label}, direct FE")
         ref = np.interp(f_chk, freqs, ph)  # the direct phase on the curve's branch
-        ax_ph.plot(f_chk, np.degrees(np.angle(v) + 2 * np.pi * np.round((ref - np.angle(v)) / (2 * np.pi))),
-                   "o", mfc="none", color=line.get_color())  # fmt: skip
+        ax_ph.plot(
+            f_chk,
+            np.degrees(np.angle(v) + 2 * np.pi * np.round((ref - np.angle(v)) / (2 * np.pi))),
+            "o",
+            mfc="none",
+            color=line.get_color(),
+        )
     ax_mag.set_ylabel("velocity per pressure (m/s/Pa)")
     ax_ph.set_ylabel("phase (deg)")
     ax_ph.set_xlabel("frequency (Hz)")

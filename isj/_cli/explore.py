@@ -166,9 +166,19 @@ def explore(args) -> int:
     )
     if rom is None and guarded:
         print(f"isj: warning: {why}; the lumped model is NOT guarded (FE spot checks only)", file=sys.stderr)
-    ex = run(cal, designs, args.spot_checks, evaluate_design, settings, fe_cache_dir(args.cache),
-             seed=args.seed, progress=not args.json, surrogate=rom, tolerance=args.tolerance,
-             n_dense=args.guard_sample)  # fmt: skip
+    ex = run(
+        cal,
+        designs,
+        args.spot_checks,
+        evaluate_design,
+        settings,
+        fe_cache_dir(args.cache),
+        seed=args.seed,
+        progress=not args.json,
+        surrogate=rom,
+        tolerance=args.tolerance,
+        n_dense=args.guard_sample,
+    )
     if geometry != Geometry():  # the explored designs' lumped response, at this geometry
         from isj.calibration.checks import lumped_static
 

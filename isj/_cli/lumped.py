@@ -44,9 +44,12 @@ def add_joint_option(p, default=None, what="the shipped calibration fitted with 
         return text
 
     p.add_argument(
-        "--joint", type=joint, default=default, metavar="{" + ",".join(CALIBRATED_JOINTS) + "}",
+        "--joint",
+        type=joint,
+        default=default,
+        metavar="{" + ",".join(CALIBRATED_JOINTS) + "}",
         help=f"the incudostapedial joint: {what} (default: bonded, or --calibration's joint)",
-    )  # fmt: skip
+    )
 
 
 def calibrated_nu(cal) -> float:

@@ -116,8 +116,11 @@ def damping_from_args(args):
     from isj.damping import Damping
 
     d = Damping.preset(args.damping)
-    for option, field in (("loss_factor", "loss_factor"), ("rayleigh_a", "rayleigh_a_per_s"),
-                          ("rayleigh_b", "rayleigh_b_s")):  # fmt: skip
+    for option, field in (
+        ("loss_factor", "loss_factor"),
+        ("rayleigh_a", "rayleigh_a_per_s"),
+        ("rayleigh_b", "rayleigh_b_s"),
+    ):
         for name, v in getattr(args, option) or ():
             d = d.replace(**{field: v if name is None else {name: v}})
     if args.cochlear_impedance is not None:

@@ -204,8 +204,12 @@ def uq(args) -> int:
 
     out = c.check_out_dir(args.out, "--out", UQ_FILES) if args.out is not None else None
     cal = c.load_calibration(args.calibration)
-    counts = {"samples": args.samples, "sobol_samples": args.sobol_samples, "bootstrap": args.bootstrap,
-              "seed": args.seed}  # fmt: skip
+    counts = {
+        "samples": args.samples,
+        "sobol_samples": args.sobol_samples,
+        "bootstrap": args.bootstrap,
+        "seed": args.seed,
+    }
     if args.config is not None:
         config = load_uq_config(args.config, cal.domain, **counts)
     else:
@@ -246,8 +250,11 @@ def uq(args) -> int:
     print(
         f"P(beta/alpha > 1) = {result.p_beta_over_alpha_gt_1:.5f}, 95 % Wilson interval [{lo:.5f}, {hi:.5f}]"
     )
-    for k, label, scale, unit in (("alpha_rad", "alpha", 1e6, " urad"), ("beta_rad", "beta", 1e6, " urad"),
-                                  ("beta_over_alpha", "beta/alpha", 1.0, "")):  # fmt: skip
+    for k, label, scale, unit in (
+        ("alpha_rad", "alpha", 1e6, " urad"),
+        ("beta_rad", "beta", 1e6, " urad"),
+        ("beta_over_alpha", "beta/alpha", 1.0, ""),
+    ):
         q = summary["summary"][k]["quantiles"]
         print(
             f"  {label:10} median {q['0.5'] * scale:.4g}{unit}, 2.5-97.5 % {q['0.025'] * scale:.4g} .. "
