@@ -16,7 +16,7 @@ import json
 import time
 
 import numpy as np
-from isj.fem.ear import ear_dynamics as ed
+from isj.fem.ear import dynamics as ed
 from isj.fem.ear.middle_ear import MiddleEarModel
 from isj.fem.model import PedicleJointModel
 from isj.lumped.ear import ear_model

@@ -1,4 +1,4 @@
-"""FE whole ear over the audio band through the reduced model (fem/ear/ear_sweep.py): cost and accuracy.
+"""FE whole ear over the audio band through the reduced model (fem/ear/reduced_ear.py): cost and accuracy.
 
 Usage: ``.venv/bin/python benchmarks/ear_sweep_fe.py [--order 2] [--resolution R] [--n 200]
 [--checks 3] [--refined-drum-m 0.125e-3 | --no-convergence] [--json PATH]``
@@ -19,13 +19,13 @@ import json
 import time
 
 import numpy as np
-from isj.fem.ear.ear_sweep import (
+from isj.fem.ear.middle_ear import MiddleEarModel
+from isj.fem.ear.reduced_ear import (
     check_against_direct,
     check_frequencies_hz,
     drum_mesh_convergence,
     reduced_ear,
 )
-from isj.fem.ear.middle_ear import MiddleEarModel
 from isj.fem.model import PedicleJointModel
 
 

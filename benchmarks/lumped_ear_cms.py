@@ -3,7 +3,7 @@
 Usage: ``.venv/bin/python benchmarks/lumped_ear_cms.py [--drum-mesh-m H] [--joint-freq-hz F ...]
 [--resolution R] [--json PATH]``
 
-1. Rigid joint: FE harmonic solves (:mod:`fem.ear.ear_dynamics`, published damping) at 14
+1. Rigid joint: FE harmonic solves (:mod:`fem.ear.dynamics`, published damping) at 14
    log-spaced frequencies from 200 Hz to 8 kHz; the lumped ear with n = none, 10, 20, 30, 40,
    60 and 80 drum modes, each mode count's worst error in dB and degrees (umbo and stapes per Pa)
    up to 5 kHz and the highest frequency below which both stay within 1 dB and 10°.

@@ -18,7 +18,7 @@ import time
 import warnings
 
 import numpy as np
-from isj.fem.ear import ear_sweep as es
+from isj.fem.ear import reduced_ear as es
 from isj.fem.ear.middle_ear import MiddleEarModel
 from isj.fem.model import PedicleJointModel
 from isj.lumped.transmission import transmission

@@ -5,7 +5,7 @@ Run:  .venv/bin/python benchmarks/uq.py [--quick]
 Prints, for the default inputs (every modulus log-uniform over the calibrated domain,
 docs/uq.md §11.2):
 
-- the time of ``isj.calibration.uq.run_uq`` at its defaults (10^6 draws, 2^14 Saltelli base
+- the time of ``isj.studies.uq.run_uq`` at its defaults (10^6 draws, 2^14 Saltelli base
   samples, 100 bootstrap resamples), stage by stage;
 - P(β/α > 1) with its 95 % Wilson interval, and its spread over five seeds;
 - the three largest total Sobol' indices of α, β and β/α, with their bootstrap half-widths, and
@@ -21,10 +21,10 @@ from __future__ import annotations
 import argparse
 import time
 
-from isj.calibration.uq import Distribution, UQConfig, default_distributions, run_uq
 from isj.lumped.model import MODULI
 
 from isj.design import Materials
+from isj.studies.uq import Distribution, UQConfig, default_distributions, run_uq
 
 
 def _top(r, out: str) -> str:

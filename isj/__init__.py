@@ -46,8 +46,8 @@ _LAZY: dict[str, str] = {
     "Damping": "isj.damping",
     "MiddleEarModel": "isj.fem.ear.middle_ear",
     "EarStaticResult": "isj.fem.ear.middle_ear",
-    "EarDamping": "isj.fem.ear.ear_dynamics",
-    "EarHarmonicResult": "isj.fem.ear.ear_dynamics",
+    "EarDamping": "isj.fem.ear.dynamics",
+    "EarHarmonicResult": "isj.fem.ear.dynamics",
     # the lumped model and its calibration
     "LumpedModel": "isj.lumped.api",
     "LumpedStaticResult": "isj.lumped.api",

@@ -4,7 +4,7 @@
 lumped chain (:meth:`isj.lumped.api.LumpedModel.chain_response`), the lumped ear
 (:meth:`isj.lumped.ear.LumpedEar.response`), the FE model's harmonic outputs
 (:func:`isj.fem.dynamics.harmonic_response`) and the FE ear
-(:meth:`isj.fem.ear.ear_dynamics.EarHarmonicResult.response`). As in
+(:meth:`isj.fem.ear.dynamics.EarHarmonicResult.response`). As in
 python-control, the object holds the numbers and ``plot`` draws them on axes the
 caller may supply; as in pyMOR's ``freq_resp``, the complex values have the
 shape (n_freq, n_out, n_in).

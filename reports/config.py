@@ -191,7 +191,7 @@ class SweepConfig:
 class TransmissionConfig:
     """The FE whole ear over a band, per thesis case and rigid (docs/transmission.md).
 
-    Each case in ``cases`` gets its own reduced FE ear (:func:`isj.fem.ear.ear_sweep.reduced_ear`,
+    Each case in ``cases`` gets its own reduced FE ear (:func:`isj.fem.ear.reduced_ear.reduced_ear`,
     about 35 s on 2 cores at the default mesh) beside the rigid incus–stapes connection;
     ``fe_checks`` direct harmonic solves of the first case, the highest at ``fmax_hz``, check
     the reduction. ``sliding_cases`` are computed again with the sliding joint (docs/model.md
@@ -235,7 +235,7 @@ class GuardConfig:
     tolerance: float = 0.03
 
 
-#: ``isj uq``'s ranges (isj.calibration.uq_inputs; a test checks they are the same), here so
+#: ``isj uq``'s ranges (isj.studies.uq_inputs; a test checks they are the same), here so
 #: that the configuration does not import the lumped model (step cache keys follow imports).
 UQ_RANGES = {
     "samples": (1_000, 10_000_000),

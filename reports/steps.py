@@ -246,8 +246,9 @@ def calibration_step(ctx: Context) -> tuple[dict, dict]:
 def sweep_step(ctx: Context) -> tuple[dict, dict]:
     """Damped frequency response of the base design: lumped chain, FE harmonic checks, modes."""
     from isj.calibration.runner import run_designs
-    from isj.calibration.sweeps import chain_sweep, fe_check_frequencies, harmonic_record_response
     from isj.fem.batch import evaluate_harmonic, evaluate_modes
+
+    from isj.studies.sweeps import chain_sweep, fe_check_frequencies, harmonic_record_response
 
     cfg = ctx.config
     s = cfg.sweep

@@ -2,7 +2,7 @@
 
 Per thesis case and for the rigid incus–stapes connection: the stapes velocity per
 ear-canal pressure H_V, the umbo velocity, α, β and the pedicle's share, from one reduced
-FE ear each (:func:`isj.fem.ear.ear_sweep.reduced_ear`), checked against direct harmonic
+FE ear each (:func:`isj.fem.ear.reduced_ear.reduced_ear`), checked against direct harmonic
 solves; ΔH_V = H_V / H_V,rigid; the lumped ear's ΔH_V beside it; how the ear drives the
 joint (:func:`isj.lumped.transmission.load_path`) and how that changes when the cochlear
 load, the ligaments and the drum are scaled; the comparison with the cat data that exist
@@ -43,7 +43,7 @@ def _columns(resp) -> dict:
 def fe_band(ctx, freq_hz: np.ndarray) -> tuple[dict, dict, dict]:
     """FE H_V etc. per case and rigid over ``freq_hz``, and the reduction's direct checks."""
     from isj.fem.batch import shared_model
-    from isj.fem.ear import ear_sweep as es
+    from isj.fem.ear import reduced_ear as es
     from isj.fem.ear.middle_ear import MiddleEarModel
 
     cfg, t = ctx.config, ctx.config.transmission

@@ -1,6 +1,6 @@
 """The uncertainty page: histograms of α, β and β/α, Sobol' bars with intervals, P(β/α > 1).
 
-Draws what :func:`isj.calibration.uq.run_uq` found; :func:`uq_step` is the report's step that
+Draws what :func:`isj.studies.uq.run_uq` found; :func:`uq_step` is the report's step that
 runs it on the report's lumped model. Two ways in:
 
 - :func:`uq_page` ``(fig, uq, histograms)`` with the JSON of ``isj uq`` (``UQResult.to_dict()``)
@@ -130,9 +130,10 @@ def uq_figure(result, title: str = "Uncertainty of the moduli: alpha, beta and b
 
 def uq_step(ctx) -> tuple[dict, dict]:
     """The moduli's uncertainty carried to α, β and β/α on the lumped model (docs/uq.md §11)."""
-    from isj.calibration.uq import lumped_evaluator, run_uq
-    from isj.calibration.uq_inputs import UQConfig
     from isj.lumped.api import LumpedModel
+
+    from isj.studies.uq import lumped_evaluator, run_uq
+    from isj.studies.uq_inputs import UQConfig
 
     cfg, u = ctx.config, ctx.config.uq
     lm = LumpedModel(ctx.calibration, cfg.geometry)

@@ -66,7 +66,7 @@ def test_each_report_step_depends_on_the_lumped_model_exactly_when_it_uses_it():
     assert {"isj.fem.batch", "isj.fem.quality"} <= by_name["model"]
     assert "isj.fem.convergence" in by_name["convergence"]
     assert "isj.fem.ear.middle_ear" in by_name["ear"]
-    assert "isj.fem.ear.ear_sweep" in by_name["transmission"]
+    assert "isj.fem.ear.reduced_ear" in by_name["transmission"]
     assert "isj.lumped.dynamics" in by_name["sweep"]
     assert "isj.lumped.artifact" in by_name["calibration"]  # the calibration object's own code
 

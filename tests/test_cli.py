@@ -311,7 +311,7 @@ def test_print_json_never_writes_nan(capsys):
 def test_sweep_with_nan_damping_ratios_never_passes(capsys, tmp_path, monkeypatch):
     import dataclasses
 
-    import isj.calibration.sweeps as sweeps
+    import isj.studies.sweeps as sweeps
 
     real = sweeps.chain_sweep
 

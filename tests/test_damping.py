@@ -202,7 +202,7 @@ def test_lumped_region_stiffnesses_sum_to_the_stiffness():
 
 
 def test_ear_parts_with_equal_factors_reduce_to_the_uniform_case():
-    from isj.fem.ear.ear_dynamics import damping_data
+    from isj.fem.ear.dynamics import damping_data
     from isj.fem.ear.middle_ear import MiddleEarModel
 
     ear = MiddleEarModel()  # the rigid joint: seconds
@@ -368,7 +368,7 @@ def test_cli_damping_options(tmp_path, capsys):
 
 
 def test_ear_modal_damping_uniform_loss_factor_is_half_eta():
-    from isj.fem.ear.ear_dynamics import modal_damping
+    from isj.fem.ear.dynamics import modal_damping
     from isj.fem.ear.middle_ear import MiddleEarModel
 
     ear = MiddleEarModel()

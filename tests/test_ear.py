@@ -291,7 +291,7 @@ def test_cli_ear_solve_json_and_bad_input(capsys):
 
 
 def _ear_dynamics():
-    from isj.fem.ear import ear_dynamics
+    from isj.fem.ear import dynamics as ear_dynamics
 
     return ear_dynamics
 

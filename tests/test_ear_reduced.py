@@ -1,15 +1,17 @@
-"""The FE ear's reduced model (fem/ear/reduced.py, fem/ear/ear_sweep.py) against direct FE solves.
+"""The FE ear's reduced model (fem/ear/joint_condensation.py, reduced_ear.py) against direct FE solves.
 
 On a coarse joint mesh (P2, resolution 0.35, as tests/test_ear.py) and the default drum. The
 references are computed by other code: the direct harmonic solves of
-:func:`fem.ear.ear_dynamics.harmonic` (one complex factorization of the whole ear per
+:func:`fem.ear.dynamics.harmonic` (one complex factorization of the whole ear per
 frequency), the static solve of :meth:`MiddleEarModel.solve` and the FE ear's own modes.
 """
 
 import numpy as np
 import pytest
-from isj.fem.ear.ear_dynamics import reduced_mass
-from isj.fem.ear.ear_sweep import (
+from isj.fem.ear.dynamics import reduced_mass
+from isj.fem.ear.joint_condensation import ear_parts, orthonormalize
+from isj.fem.ear.middle_ear import MiddleEarModel
+from isj.fem.ear.reduced_ear import (
     OUTPUTS,
     UNITS,
     agreement_limit_hz,
@@ -18,8 +20,6 @@ from isj.fem.ear.ear_sweep import (
     footplate_fit,
     reduced_ear,
 )
-from isj.fem.ear.middle_ear import MiddleEarModel
-from isj.fem.ear.reduced import ear_parts, orthonormalize
 from isj.fem.model import PedicleJointModel
 
 from isj.damping import Damping
@@ -193,7 +193,7 @@ def test_cli_fe_sweep_writes_its_files_and_checks_itself(capsys, tmp_path):
 
 
 def test_cli_fe_sweep_exits_1_when_a_check_fails(capsys, tmp_path, monkeypatch):
-    from isj.fem.ear import ear_sweep
+    from isj.fem.ear import reduced_ear as ear_sweep
 
     from isj.cli import main
 

@@ -1,7 +1,7 @@
 """The lumped ear with the drum's component modes (lumped/ear_drum.py, fem/ear/drum_modes.py) against FE.
 
 On the coarse drum mesh (0.4 mm, the coarsest the drum accepts), the FE ear's rigid-joint
-harmonic solves (fem/ear/ear_dynamics.py, published damping) take 0.06 s a frequency. Measured
+harmonic solves (fem/ear/dynamics.py, published damping) take 0.06 s a frequency. Measured
 there (benchmarks/lumped_ear_cms.py --drum-mesh-m 0.4e-3), lumped / FE, 14 frequencies from
 200 Hz to 8 kHz, umbo and stapes per Pa:
 

@@ -269,8 +269,8 @@ def test_transmission_pages_carry_the_fe_ear_over_the_band(report):
 
 def test_uq_page_carries_the_probability_and_the_indices(report):
     """The report's uncertainty step is isj uq's computation on the report's lumped model."""
-    from isj.calibration.uq import run_uq
-    from isj.calibration.uq_inputs import UQConfig
+    from isj.studies.uq import run_uq
+    from isj.studies.uq_inputs import UQConfig
 
     uq = json.loads((report["dir"] / "data" / "uq.json").read_text())
     assert uq["samples"] == 20000 and uq["sobol_samples"] == 512
@@ -285,8 +285,9 @@ def test_uq_page_carries_the_probability_and_the_indices(report):
 
 def test_uq_section_has_isj_uq_ranges():
     """The report checks [uq] with isj uq's own ranges, before anything runs."""
-    from isj.calibration import uq_inputs as ui
     from isj.reports.config import UQ_RANGES
+
+    from isj.studies import uq_inputs as ui
 
     assert UQ_RANGES == {
         "samples": ui.SAMPLES_RANGE,

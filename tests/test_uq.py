@@ -1,4 +1,4 @@
-"""``isj uq`` and isj.calibration.uq: Sobol' indices against exact values, reproducibility,
+"""``isj uq`` and isj.studies.uq: Sobol' indices against exact values, reproducibility,
 P(β/α > 1) and its interval against known probabilities, the JSON, one-line refusals."""
 
 import json
@@ -6,7 +6,11 @@ import math
 
 import numpy as np
 import pytest
-from isj.calibration.uq import (
+from isj.lumped.model import MODULI
+
+from isj.cli import main
+from isj.errors import ConfigError
+from isj.studies.uq import (
     Distribution,
     UQConfig,
     compare_evaluators,
@@ -18,10 +22,6 @@ from isj.calibration.uq import (
     sobol_indices,
     uq_config_from_dict,
 )
-from isj.lumped.model import MODULI
-
-from isj.cli import main
-from isj.errors import ConfigError
 
 UNCERTAIN = MODULI[:5]  # pedicle, gap, capsule, plate, stapes (the incus is fixed by default)
 #: Small counts: fast, still within the tolerances below.

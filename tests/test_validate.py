@@ -50,7 +50,7 @@ def _fe_chain(f):
 
 
 def _fe_ear(f):
-    from isj.fem.ear.ear_dynamics import harmonic
+    from isj.fem.ear.dynamics import harmonic
 
     return harmonic(None, f)
 

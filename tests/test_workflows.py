@@ -19,7 +19,11 @@ from isj.calibration.checks import (
     warn_outside_domain,
 )
 from isj.calibration.doe import DesignSpace
-from isj.calibration.explore import (
+from isj.lumped.artifact import default_calibration
+
+from isj.design import Materials
+from isj.errors import CalibrationWarning, InvalidParameter, OutOfDomainWarning
+from isj.studies.explore import (
     MAX_DESIGNS,
     ExploreSpace,
     count_designs,
@@ -27,11 +31,7 @@ from isj.calibration.explore import (
     explore_designs,
     spot_check_picks,
 )
-from isj.calibration.sweeps import HarmonicComparison, chain_sweep, compare_harmonic, fe_check_frequencies
-from isj.lumped.artifact import default_calibration
-
-from isj.design import Materials
-from isj.errors import CalibrationWarning, InvalidParameter, OutOfDomainWarning
+from isj.studies.sweeps import HarmonicComparison, chain_sweep, compare_harmonic, fe_check_frequencies
 
 #: The fake FE answers α·A_SCALE and β·B_SCALE of the lumped model.
 A_SCALE, B_SCALE = 1.25, 0.8

@@ -9,7 +9,7 @@
 - :mod:`fem.ear.footplate`: the stapes footplate (thick-rimmed elliptical shell) and its
   annular-ligament springs;
 - :mod:`fem.ear.rigid`: rigid bodies (point maps, grounded springs, axis of rotation);
-- :mod:`fem.ear.reduction`: master–slave elimination over the whole ear's dofs, with a
+- :mod:`fem.ear.elimination`: master–slave elimination over the whole ear's dofs, with a
   reusable reduced pattern;
 - :mod:`fem.ear.middle_ear`: the whole cat middle ear, static, with the pedicle-and-joint
   model embedded (or a rigid joint). Anatomy and constants: :mod:`isj.ear`.

@@ -27,12 +27,12 @@ Variant ``joint=None``: the joint replaced by a rigid connection; the stapes
 superstructure is then part of the malleus–incus body (small and fast).
 
 Dynamics (mass from :class:`isj.ear.EarMasses`, docs/dynamics.md §4.3 damping, harmonic response per
-Pa, natural frequencies): :mod:`fem.ear.ear_dynamics`, also as :meth:`MiddleEarModel.mass`,
+Pa, natural frequencies): :mod:`fem.ear.dynamics`, also as :meth:`MiddleEarModel.mass`,
 :meth:`MiddleEarModel.harmonic` and :meth:`MiddleEarModel.natural_frequencies`.
 
 Everything that does not depend on the moduli is built once: meshes, the
 constraint map T, the pattern of Tᵀ K T and the map from the entries' values
-to it (:class:`fem.ear.reduction.ReducedPattern`), the solver's analysis, the
+to it (:class:`fem.ear.elimination.ReducedPattern`), the solver's analysis, the
 load. A new set of joint moduli (or ear materials) costs one sparse mat-vec and
 one numeric factorization.
 """
@@ -49,13 +49,13 @@ from isj.ear import EarGeometry, EarMasses, EarMaterials
 
 from .constraints import rigid_body_modes
 from .eardrum import EardrumGeometry, ear_canal_load, eardrum_mesh
+from .elimination import ConstraintBuilder, ReducedPattern
 from .footplate import FOOTPLATE_DENSITY_KG_M3, footplate_mesh
-from .reduction import ConstraintBuilder, ReducedPattern
 from .rigid import axis_of_rotation, grounded_springs, point_map
 from .shell import NDOF, ShellMaterial, _element_dofs, element_stiffness
 
 #: Density of the pars tensa (kg/m³), :attr:`isj.ear.EarMasses.drum_density_kg_m3` (estimate);
-#: statics ignore it, :mod:`fem.ear.ear_dynamics` reads :class:`isj.ear.EarMasses`.
+#: statics ignore it, :mod:`fem.ear.dynamics` reads :class:`isj.ear.EarMasses`.
 DRUM_DENSITY_KG_M3 = EarMasses().drum_density_kg_m3
 
 
@@ -426,8 +426,8 @@ class MiddleEarModel:
     def mass(
         self, materials: Materials | None = None, ear_materials: EarMaterials | None = None, masses=None
     ):
-        """Reduced mass Tᵀ M T (CSR, SI) on the stiffness's pattern (:func:`.ear_dynamics.reduced_mass`)."""
-        from .ear_dynamics import reduced_mass
+        """Reduced mass Tᵀ M T (CSR, SI) on the stiffness's pattern (:func:`.dynamics.reduced_mass`)."""
+        from .dynamics import reduced_mass
 
         return reduced_mass(self, materials, ear_materials, masses)
 
@@ -440,8 +440,8 @@ class MiddleEarModel:
         masses=None,
         pressure_pa: float = 1.0,
     ):
-        """Damped response per Pa at ``freq_hz`` (Hz): :func:`fem.ear.ear_dynamics.harmonic`."""
-        from .ear_dynamics import harmonic
+        """Damped response per Pa at ``freq_hz`` (Hz): :func:`fem.ear.dynamics.harmonic`."""
+        from .dynamics import harmonic
 
         return harmonic(self, freq_hz, materials, ear_materials, damping, masses, pressure_pa)
 
@@ -468,8 +468,8 @@ class MiddleEarModel:
         ear_materials: EarMaterials | None = None,
         masses=None,
     ):
-        """The ``n`` lowest natural frequencies (Hz), modes (:func:`.ear_dynamics.natural_frequencies`)."""
-        from .ear_dynamics import natural_frequencies
+        """The ``n`` lowest natural frequencies (Hz), modes (:func:`.dynamics.natural_frequencies`)."""
+        from .dynamics import natural_frequencies
 
         return natural_frequencies(self, n, materials, ear_materials, masses)
 

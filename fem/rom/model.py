@@ -115,7 +115,7 @@ class ReducedModel:
             E = self.space.check(designs)
         else:
             E = self.space.designs_from(designs, **moduli)
-        from ..ear.reduced import one_blas_thread
+        from ..ear.joint_condensation import one_blas_thread
 
         theta = self.space.theta(E)
         # one OpenBLAS thread per evaluating thread: the products are small, and OpenBLAS's own
@@ -250,7 +250,7 @@ def build_reduced_model(
     designs (seed ``seed + 1``). Stops when every validation design's relative bound on α,
     β and β/α is at most ``tol`` (or at ``max_snapshots``; ``meta["converged"]`` says which).
     """
-    from ..ear.reduced import one_blas_thread
+    from ..ear.joint_condensation import one_blas_thread
     from .local import local_bases, pack
     from .offline import Greedy, relative_bounds, run_greedy
 

@@ -77,7 +77,7 @@ def register(sub) -> None:
         "--fe",
         action="store_true",
         help="the FE whole ear with the joint inside at every frequency, through its reduced model "
-        "(fem/ear/ear_sweep.py), instead of the lumped ear; checked against direct FE harmonic solves "
+        "(fem/ear/reduced_ear.py), instead of the lumped ear; checked against direct FE harmonic solves "
         "at max(--fe-checks, 3) frequencies, both band ends included, within 1 %% in magnitude and "
         "1 deg in phase (exit 1 otherwise)",
     )
@@ -168,7 +168,7 @@ def sweep(args) -> int:
     import numpy as np
 
     from isj.calibration.checks import warn_outside_domain
-    from isj.calibration.sweeps import ear_sweep
+    from isj.studies.sweeps import ear_sweep
 
     from ..atomic import replace_dir
     from ..ear import EarMaterials
@@ -328,7 +328,7 @@ def _fe_sweep(args) -> int:
     """``--fe``: the FE ear's reduced model at every frequency, checked against direct FE solves."""
     import numpy as np
 
-    from isj.fem.ear import ear_sweep as es
+    from isj.fem.ear import reduced_ear as es
 
     from ..atomic import replace_dir
     from ..provenance import write_run_record
@@ -356,7 +356,7 @@ def _fe_sweep(args) -> int:
         "n_freq": int(args.n),
         "band_hz": [float(args.fmin_hz), float(args.fmax_hz)],
         "rigid_joint": bool(args.rigid_joint),
-        "method": "reduced FE ear (fem/ear/ear_sweep.py): joint condensed onto its rigid bodies, "
+        "method": "reduced FE ear (fem/ear/reduced_ear.py): joint condensed onto its rigid bodies, "
         "shells by a rational Krylov basis, damping per part on the projected parts",
         "outputs": list(names),
         "units": [resp.unit(k) for k in names],

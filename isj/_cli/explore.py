@@ -133,9 +133,9 @@ def _surrogate(args):
 
 def explore(args) -> int:
 
-    from isj.calibration.explore import MAX_DESIGNS, ExploreSpace, count_designs, explore_designs
-    from isj.calibration.explore import explore as run
     from isj.fem.batch import evaluate_design, fe_settings
+    from isj.studies.explore import MAX_DESIGNS, ExploreSpace, count_designs, explore_designs
+    from isj.studies.explore import explore as run
 
     from ..caches import fe_cache_dir
     from .lumped import calibration_and_geometry

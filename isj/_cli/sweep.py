@@ -166,7 +166,7 @@ def sweep_setup(args, files: frozenset[str]):
     counts, the output folder (new, empty, or one holding only ``files``: it is replaced as a
     whole) and the calibration.
     """
-    from isj.calibration.sweeps import fe_check_frequencies
+    from isj.studies.sweeps import fe_check_frequencies
     from isj.validate import check_band
 
     check_band(args.fmin_hz, args.fmax_hz, ("--fmin-hz", "--fmax-hz"))
@@ -219,7 +219,7 @@ def sweep(args) -> int:
     import numpy as np
 
     from isj.calibration.checks import warn_fe_settings, warn_outside_domain
-    from isj.calibration.sweeps import chain_sweep
+    from isj.studies.sweeps import chain_sweep
 
     from ..atomic import replace_dir
     from ..provenance import write_run_record

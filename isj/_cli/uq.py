@@ -27,7 +27,7 @@ def _power_of_two(name: str, lo: int, hi: int):
 
 def register(sub) -> None:
     """Add ``isj uq`` to the top-level subparsers ``sub``."""
-    from isj.calibration.uq_inputs import (
+    from isj.studies.uq_inputs import (
         BOOTSTRAP_RANGE,
         DEFAULT_BOOTSTRAP,
         DEFAULT_SAMPLES,
@@ -106,8 +106,8 @@ def write_outputs(folder, args, result, summary: dict | None = None) -> None:
     """The files of :data:`UQ_FILES` into ``folder`` (each written atomically); ``summary``: the
     JSON for uq.json (default ``result.to_dict()``)."""
     from isj.atomic import atomic_write_text
-    from isj.calibration.uq import OUTPUTS, QUANTILES, UNITS
     from isj.reports.uq import uq_figure
+    from isj.studies.uq import OUTPUTS, QUANTILES, UNITS
 
     from ..provenance import write_run_record
 
@@ -139,7 +139,7 @@ def write_outputs(folder, args, result, summary: dict | None = None) -> None:
 
 def surrogate_evaluator(rom, pressure_pa: float):
     """The surrogate (:class:`isj.fem.rom.ReducedModel`) as an evaluator of
-    :mod:`isj.calibration.uq`: moduli (Pa) → (α, β) in rad; a design outside its domain is refused."""
+    :mod:`isj.studies.uq`: moduli (Pa) → (α, β) in rad; a design outside its domain is refused."""
     from isj.fem.rom import RANGED
 
     def evaluate(moduli):
@@ -197,8 +197,8 @@ def _surrogate(args):
 
 
 def uq(args) -> int:
-    from isj.calibration.uq import UQConfig, load_uq_config, lumped_evaluator, run_uq
     from isj.lumped.api import LumpedModel
+    from isj.studies.uq import UQConfig, load_uq_config, lumped_evaluator, run_uq
 
     from ..atomic import replace_dir
 
@@ -227,7 +227,7 @@ def uq(args) -> int:
     result = run_uq(config, evaluator, pressure_pa=args.pressure, domain=cal.domain)
     summary = result.to_dict()
     if args.compare_surrogate:
-        from isj.calibration.uq import compare_evaluators
+        from isj.studies.uq import compare_evaluators
 
         surrogate = surrogate_evaluator(rom, args.pressure)
         where = inside_surrogate(rom.space)

@@ -120,7 +120,7 @@ def ear_parts(
     Raises RuntimeError when the parts do not add up to :meth:`MiddleEarModel.stiffness` (a
     guard against a change of the model's entry layout that this split does not know).
     """
-    from .ear_dynamics import footplate_mass_matrix, stapes_rigid_mass
+    from .dynamics import footplate_mass_matrix, stapes_rigid_mass
 
     t0 = time.perf_counter()
     materials = materials or Materials()

@@ -15,11 +15,11 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from isj.lumped.dynamics import OUTPUTS as CHAIN_OUTPUTS
-from isj.lumped.dynamics import SecondOrderModel, chain_model, frequency_response
 
 from isj.damping import resolve, warn_rayleigh_band
 from isj.design import DEFAULT_PRESSURE_PA, REGIONS, Geometry, Materials
+from isj.lumped.dynamics import OUTPUTS as CHAIN_OUTPUTS
+from isj.lumped.dynamics import SecondOrderModel, chain_model, frequency_response
 from isj.validate import check_band, check_frequencies
 
 #: What an FE harmonic solve hands back: per output name a complex array over the

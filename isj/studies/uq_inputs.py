@@ -15,10 +15,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from isj.lumped.model import MODULI
 
 from isj.design import Materials
 from isj.errors import ConfigError
+from isj.lumped.model import MODULI
 from isj.validate import MODULUS_RANGE_PA, read_toml
 
 #: Distribution kinds.

@@ -1,6 +1,6 @@
 """Uncertainty and sensitivity: the moduli's uncertainty carried to α, β, α + β and β/α (docs/uq.md).
 
-Each Young's modulus (Pa) has a :class:`Distribution` (:mod:`isj.calibration.uq_inputs`):
+Each Young's modulus (Pa) has a :class:`Distribution` (:mod:`isj.studies.uq_inputs`):
 log-uniform over a range (default: the calibrated domain of the lumped model, docs/lumped.md
 §3.5, the thesis's plausible ranges §6.2.3–6.2.5), lognormal with a median and a spread, or
 fixed. :func:`run_uq` then
@@ -27,10 +27,10 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
-from isj.lumped.model import MODULI
 
 from isj.design import DEFAULT_PRESSURE_PA
 from isj.errors import InvalidParameter
+from isj.lumped.model import MODULI
 
 from .uq_inputs import (
     BOOTSTRAP_RANGE,

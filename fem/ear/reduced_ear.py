@@ -2,7 +2,7 @@
 
 Two real reductions, both measured against full harmonic solves (benchmarks/ear_sweep_fe.py):
 
-1. the joint model condensed onto its two rigid bodies (:func:`fem.ear.reduced.condense_joint`);
+1. the joint model condensed onto its two rigid bodies (:func:`fem.ear.joint_condensation.condense_joint`);
 2. each shell (drum, footplate) condensed onto the dofs where anything else acts
    (:func:`shell_basis`): static constraint shapes Ψ_s plus a rational Krylov basis of the
    interior, real solutions (K_II − σ_j M_II)⁻¹ R₀ and (K_II − σ_j M_II)⁻¹ M_II (…) at shifts
@@ -41,7 +41,7 @@ from isj.design import InvalidParameter, Materials
 from isj.ear import EarMasses, EarMaterials
 from isj.validate import check_frequencies
 
-from .reduced import (
+from .joint_condensation import (
     CondensedEar,
     condense_joint,
     dynamic_terms,
@@ -88,7 +88,7 @@ def shell_basis(level1, fmax_hz: float, n_shifts: int | None = None, depth: int 
 
     Parameters
     ----------
-    level1 : :class:`fem.ear.reduced.CondensedEar` (or :class:`fem.ear.reduced.EarParts`)
+    level1 : :class:`fem.ear.joint_condensation.CondensedEar` (or its ``EarParts``)
     fmax_hz : highest frequency of interest (Hz); shifts reach 1.2 × it
     n_shifts : shifts (default :data:`SHIFTS_PER_KHZ` × 1.2 f_max in kHz, at least 4)
     depth : Krylov moments per shift
@@ -271,7 +271,7 @@ class ReducedEar:
 
     def outputs(self, freq_hz, damping=None) -> np.ndarray:
         """(n, 4) complex: umbo (along its static direction), stapes piston (m/Pa), α, β (rad/Pa),
-        the columns of :meth:`fem.ear.ear_dynamics.EarHarmonicResult.outputs`."""
+        the columns of :meth:`fem.ear.dynamics.EarHarmonicResult.outputs`."""
         return self._columns(freq_hz, damping)[0][:, [3, 2, 7, 8]]
 
     def _columns(self, freq_hz, damping):
@@ -327,11 +327,11 @@ def reduced_ear(
     Parameters
     ----------
     model : :class:`fem.ear.middle_ear.MiddleEarModel` (with the joint model or rigid)
-    materials, ear_materials, masses : as :func:`fem.ear.ear_dynamics.harmonic` (the basis is
+    materials, ear_materials, masses : as :func:`fem.ear.dynamics.harmonic` (the basis is
         built for these; a change of them needs a new reduction)
     fmax_hz : highest frequency the basis is built for (Hz)
     n_shifts : Krylov shifts (:func:`shell_basis`)
-    joint_enrich : interior vectors of the joint (:func:`fem.ear.reduced.condense_joint`)
+    joint_enrich : interior vectors of the joint (:func:`fem.ear.joint_condensation.condense_joint`)
 
     Returns
     -------
@@ -444,7 +444,7 @@ def check_against_direct(
     masses=None,
     tolerance=CHECK_TOLERANCE,
 ) -> dict:
-    """The reduced model against direct FE harmonic solves (:func:`fem.ear.ear_dynamics.harmonic`).
+    """The reduced model against direct FE harmonic solves (:func:`fem.ear.dynamics.harmonic`).
 
     Returns
     -------

@@ -20,15 +20,27 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
-from isj.lumped.model import StaticResponse
 
+from isj.calibration.checks import (
+    StaticComparison,
+    compare_static,
+    lumped_static,
+    warn_fe_settings,
+    warn_outside_domain,
+)
+from isj.calibration.doe import Bounds, DesignSpace, _engine
+from isj.calibration.guard import (
+    DEFAULT_DENSE,
+    DEFAULT_TOLERANCE,
+    Guard,
+    confirmations,
+    run_guard,
+    worst_picks,
+)
+from isj.calibration.region import in_region, region_of
 from isj.design import DEFAULT_PRESSURE_PA, Geometry, Materials
 from isj.errors import InvalidParameter
-
-from .checks import StaticComparison, compare_static, lumped_static, warn_fe_settings, warn_outside_domain
-from .doe import Bounds, DesignSpace, _engine
-from .guard import DEFAULT_DENSE, DEFAULT_TOLERANCE, Guard, confirmations, run_guard, worst_picks
-from .region import in_region, region_of
+from isj.lumped.model import StaticResponse
 
 #: Most designs one exploration evaluates: about 6 arrays of 8 bytes each per design, ~2.4 GB.
 MAX_DESIGNS = 50_000_000
