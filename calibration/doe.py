@@ -25,7 +25,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 from isj.lumped.artifact import GEOMETRY_CLEARANCE_M as _CLEARANCE_M
 
-from isj.design import InvalidParameter
+from isj.errors import InvalidParameter
 
 Bounds = tuple[float, float]
 

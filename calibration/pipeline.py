@@ -21,7 +21,8 @@ from isj.lumped.model import (
     plate_support_argument,
 )
 
-from isj.design import Geometry, InvalidParameter
+from isj.design import Geometry
+from isj.errors import InvalidParameter
 
 from .doe import DesignSpace, GeometrySpace, mixed_corners, sample, sample_with_geometry
 from .fit import fit_factors, record_lever

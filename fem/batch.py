@@ -13,8 +13,9 @@ import dataclasses
 import threading
 from collections.abc import Mapping
 
-from isj.design import DEFAULT_PRESSURE_PA, REGIONS, Geometry, InvalidParameter, Materials, check_pressure
+from isj.design import DEFAULT_PRESSURE_PA, REGIONS, Geometry, Materials, check_pressure
 from isj.digest import code_digest
+from isj.errors import InvalidParameter
 
 from .model import PedicleJointModel
 

@@ -36,7 +36,8 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from isj.damping import Damping, resolve, warn_rayleigh_band
-from isj.design import DEFAULT_PRESSURE_PA, InvalidParameter, Materials
+from isj.design import DEFAULT_PRESSURE_PA, Materials
+from isj.errors import InvalidParameter
 from isj.validate import check_frequencies
 
 from .assembly import combine, lame_unit

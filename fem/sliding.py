@@ -33,7 +33,8 @@ import math
 import numpy as np
 import scipy.sparse as sp
 
-from isj.design import DEFAULT_PRESSURE_PA, Geometry, InvalidParameter, Materials
+from isj.design import DEFAULT_PRESSURE_PA, Geometry, Materials
+from isj.errors import InvalidParameter
 
 from .assembly import combine, lame_unit
 

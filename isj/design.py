@@ -13,7 +13,7 @@ import dataclasses
 import math
 from dataclasses import dataclass, fields
 
-from isj.errors import InvalidParameter  # noqa: F401 - re-exported, its old home
+from isj.errors import InvalidParameter
 from isj.validate import check_poisson
 
 #: Region names in region-id order. The id is the index in this tuple.

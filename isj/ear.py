@@ -39,7 +39,8 @@ import dataclasses
 import math
 from dataclasses import dataclass
 
-from .design import Geometry, InvalidParameter, check_positive
+from .design import Geometry, check_positive
+from .errors import InvalidParameter
 from .validate import check_poisson
 
 Vector = tuple[float, float, float]

@@ -24,7 +24,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from isj.design import DEFAULT_PRESSURE_PA, Geometry, InvalidParameter, Materials
+from isj.design import DEFAULT_PRESSURE_PA, Geometry, Materials
+from isj.errors import InvalidParameter
 from isj.validate import check_frequencies
 
 from .artifact import Calibration, calibration_for, check_joint, default_calibration

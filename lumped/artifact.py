@@ -269,7 +269,7 @@ def sliding_calibration() -> Calibration:
 def check_joint(joint) -> str:
     """``joint`` if the shipped calibrations cover it, else InvalidParameter naming the valid ones."""
     if joint not in CALIBRATED_JOINTS:
-        from isj.design import InvalidParameter
+        from isj.errors import InvalidParameter
 
         raise InvalidParameter(
             f"joint = {joint!r}: the lumped model is calibrated for {' and '.join(CALIBRATED_JOINTS)} "

@@ -53,7 +53,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from isj.damping import Damping, resolve
-from isj.design import DEFAULT_PRESSURE_PA, REGIONS, Geometry, InvalidParameter, Materials
+from isj.design import DEFAULT_PRESSURE_PA, REGIONS, Geometry, Materials
+from isj.errors import InvalidParameter
 
 from .damping import damping_terms, region_stiffness
 from .model import FACTOR_NAMES, Lever, equations, moduli_arrays

@@ -72,8 +72,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from isj.damping import Damping, resolve
-from isj.design import REGIONS, Geometry, InvalidParameter, Materials
+from isj.design import REGIONS, Geometry, Materials
 from isj.ear import EarGeometry, EarMasses, EarMaterials
+from isj.errors import InvalidParameter
 from isj.kinematics import grounded_springs, point_map, rigid_mass
 from isj.validate import check_frequencies
 

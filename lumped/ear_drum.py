@@ -42,7 +42,7 @@ from importlib import resources
 
 import numpy as np
 
-from isj.design import InvalidParameter
+from isj.errors import InvalidParameter
 from isj.validate import check_frequencies
 
 #: The shipped modes: :func:`fem.ear.drum_modes.drum_modes` on the default anatomy and drum mesh.

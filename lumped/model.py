@@ -378,7 +378,7 @@ def moduli_arrays(designs=None, **moduli) -> dict[str, np.ndarray]:
     for k in MODULI:
         v = np.asarray(src.get(k, getattr(base, k)), dtype=float)
         if np.any(~np.isfinite(v)) or np.any(v <= 0):
-            from isj.design import InvalidParameter
+            from isj.errors import InvalidParameter
 
             raise InvalidParameter(f"{k}: every value must be a finite number > 0 (Pa)")
         out[k] = v

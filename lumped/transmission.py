@@ -23,7 +23,8 @@ from dataclasses import replace as dataclasses_replace
 import numpy as np
 
 from isj.cases import THESIS_CASES
-from isj.design import InvalidParameter, Materials
+from isj.design import Materials
+from isj.errors import InvalidParameter
 from isj.validate import check_frequencies
 
 from .ear import LumpedEar

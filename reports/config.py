@@ -29,9 +29,12 @@ from pathlib import Path
 from typing import ClassVar
 
 from isj.cases import THESIS_CASES
-from isj.design import DEFAULT_PRESSURE_PA, Geometry, InvalidParameter, Materials
+from isj.design import DEFAULT_PRESSURE_PA, Geometry, Materials
 from isj.ear import EarMaterials
-from isj.errors import ConfigError  # noqa: F401 - re-exported, its old home
+from isj.errors import (
+    ConfigError,  # noqa: F401 - re-exported, its old home
+    InvalidParameter,
+)
 from isj.validate import check_modulus, check_pressure, read_toml
 
 

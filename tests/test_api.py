@@ -20,8 +20,8 @@ from isj.lumped.ear import ear_model
 from isj.lumped.model import MODULI, static_response
 
 import isj
-from isj.design import InvalidParameter
 from isj.ear import EarMaterials
+from isj.errors import InvalidParameter
 from isj.responses import FrequencyResponse
 
 

@@ -21,8 +21,8 @@ from isj.damping import (
     Damping,
     warn_rayleigh_band,
 )
-from isj.design import REGIONS, InvalidParameter, Materials
-from isj.errors import DampingWarning
+from isj.design import REGIONS, Materials
+from isj.errors import DampingWarning, InvalidParameter
 
 FREQ = np.array([0.0, 50.0, 1e3, 22_508.0, 2e5])  # 22.5 kHz: the oscillator's resonance
 M1, K1 = 2e-9, 40.0  # kg, N/m: f_n = 22.5 kHz

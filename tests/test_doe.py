@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from isj.calibration.doe import DesignSpace, corners, grid, sample
 
-from isj.design import InvalidParameter
+from isj.errors import InvalidParameter
 
 SPACE = DesignSpace()
 

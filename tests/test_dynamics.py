@@ -13,8 +13,8 @@ from isj.fem.model import ElasticModel
 from isj.fem.solvers import available_backends, make_complex_symmetric_solver, make_solver
 from isj.fem.structured import box_mesh
 
-from isj.design import InvalidParameter, Materials
-from isj.errors import DampingWarning
+from isj.design import Materials
+from isj.errors import DampingWarning, InvalidParameter
 
 B, H = 55e-6, 160e-6  # section: x (bending direction), y
 RHO, E = 2000.0, 5e9

@@ -12,8 +12,9 @@ from isj.fem.ear.shell import NDOF
 from isj.fem.model import PedicleJointModel
 
 from isj.cases import THESIS_CASES
-from isj.design import REGIONS, InvalidParameter, Materials
+from isj.design import REGIONS, Materials
 from isj.ear import EarGeometry, EarMasses, EarMaterials
+from isj.errors import InvalidParameter
 
 CAT = EarGeometry()
 NO_SPRINGS = EarMaterials(

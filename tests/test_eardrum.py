@@ -15,7 +15,7 @@ from isj.fem.ear.eardrum import (
 )
 from isj.fem.ear.shell import stiffness_matrix, surface_area
 
-from isj.design import InvalidParameter
+from isj.errors import InvalidParameter
 
 CAT = EardrumGeometry()
 

@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 from isj.lumped.model import FACTOR_NAMES, MODULI, Lever, equations, moduli_arrays, static_response
 
-from isj.design import Geometry, InvalidParameter
+from isj.design import Geometry
+from isj.errors import InvalidParameter
 
 ONES = np.ones(len(FACTOR_NAMES))
 

@@ -31,8 +31,8 @@ import numpy as np
 import pytest
 from isj.lumped.ear import DEFAULT_EARDRUM, OUTPUTS, EardrumParameters, ear_model
 
-from isj.design import InvalidParameter
 from isj.ear import EarMaterials
+from isj.errors import InvalidParameter
 
 
 @pytest.fixture(scope="module")

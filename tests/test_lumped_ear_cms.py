@@ -27,8 +27,8 @@ from isj.lumped.ear_drum import DrumModes, default_drum_modes, freq_resp
 from isj.lumped.second_order import SecondOrderModel
 
 from isj.damping import resolve
-from isj.design import InvalidParameter
 from isj.ear import EarMaterials
+from isj.errors import InvalidParameter
 
 H = 0.4e-3  # the coarse drum mesh (m)
 F = np.geomspace(200.0, 8000.0, 14)  # the measurement's frequencies (Hz)

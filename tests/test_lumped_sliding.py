@@ -16,7 +16,8 @@ from isj.lumped.artifact import Calibration, CorruptCalibration, default_calibra
 from isj.lumped.model import MODULI
 
 from isj.cases import THESIS_CASES
-from isj.design import InvalidParameter, Materials
+from isj.design import Materials
+from isj.errors import InvalidParameter
 
 #: FE α and β (µrad) of the seven thesis cases, bonded and sliding, at the default pressure, P2 on
 #: the default mesh (resolution 1): the table of docs/model.md §2.12 (isj.fem.sliding.compare_cases).

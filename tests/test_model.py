@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 from isj.cases import THESIS_BASE_SUM_RAD, THESIS_CASES
-from isj.design import DEFAULT_PRESSURE_PA, InvalidParameter, Materials
+from isj.design import DEFAULT_PRESSURE_PA, Materials
+from isj.errors import InvalidParameter
 
 
 def test_linear_in_pressure(coarse_model):

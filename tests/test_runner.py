@@ -193,7 +193,8 @@ def test_dask_matches_process_pool(tmp_path, settings):
 def test_fe_evaluate_design_linear_and_memoised():
     from isj.fem import batch
 
-    from isj.design import DEFAULT_PRESSURE_PA, InvalidParameter
+    from isj.design import DEFAULT_PRESSURE_PA
+    from isj.errors import InvalidParameter
 
     s1 = batch.fe_settings(order=1, resolution=0.35)
     s2 = batch.fe_settings(order=1, resolution=0.35, pressure_pa=2 * DEFAULT_PRESSURE_PA)

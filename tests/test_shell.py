@@ -32,7 +32,7 @@ from isj.fem.ear.shell import (
     traction_load,
 )
 
-from isj.design import InvalidParameter
+from isj.errors import InvalidParameter
 
 STEEL = ShellMaterial(e_pa=200e9, nu=0.3, thickness_m=0.01, density_kg_m3=7800.0)
 

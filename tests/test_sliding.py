@@ -11,7 +11,8 @@ from isj.fem.space import build_space
 from isj.fem.structured import box_mesh
 
 from isj.cases import THESIS_CASES
-from isj.design import InvalidParameter, Materials
+from isj.design import Materials
+from isj.errors import InvalidParameter
 
 L, H = 1e-3, 0.5e-3  # block side and height (m)
 E = {"lower": 1e9, "upper": 3e9}  # Pa: unequal, so bonding would restrain the lateral strains

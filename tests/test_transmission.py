@@ -13,7 +13,8 @@ from isj.lumped.api import LumpedModel
 from isj.lumped.transmission import load_path, pedicle_sensitivity, thevenin_sensitivity, transmission
 
 from isj.cases import THESIS_CASES, ThesisCase
-from isj.design import InvalidParameter, Materials
+from isj.design import Materials
+from isj.errors import InvalidParameter
 
 FREQ = np.array([200.0, 1000.0, 5000.0, 10000.0])
 

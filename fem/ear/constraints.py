@@ -10,7 +10,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from isj.design import InvalidParameter
+from isj.errors import InvalidParameter
 
 from .shell import NDOF
 

@@ -36,8 +36,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from isj.design import InvalidParameter
 from isj.ear import EarGeometry, EarMaterials
+from isj.errors import InvalidParameter
 
 from ..solvers import lanczos_start
 from .constraints import rigid_body_modes

@@ -47,8 +47,9 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from isj.damping import Damping, resolve, warn_rayleigh_band
-from isj.design import InvalidParameter, Materials
+from isj.design import Materials
 from isj.ear import EarMasses, EarMaterials
+from isj.errors import InvalidParameter
 from isj.kinematics import rigid_mass
 from isj.validate import check_frequencies
 

@@ -33,8 +33,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from isj.design import InvalidParameter, check_positive
+from isj.design import check_positive
 from isj.ear import EarGeometry
+from isj.errors import InvalidParameter
 
 from .shell import ShellMaterial, pressure_load
 

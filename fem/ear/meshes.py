@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from isj.design import InvalidParameter
+from isj.errors import InvalidParameter
 
 
 def _check_count(name: str, value: int, minimum: int) -> int:

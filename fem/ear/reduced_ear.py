@@ -37,8 +37,9 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from isj.design import InvalidParameter, Materials
+from isj.design import Materials
 from isj.ear import EarMasses, EarMaterials
+from isj.errors import InvalidParameter
 from isj.validate import check_frequencies
 
 from .joint_condensation import (

@@ -34,7 +34,8 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from isj.design import InvalidParameter, check_positive
+from isj.design import check_positive
+from isj.errors import InvalidParameter
 from isj.validate import check_poisson
 
 #: Dofs per node: ux, uy, uz, θx, θy, θz.
