@@ -27,6 +27,10 @@ from isj.errors import InvalidMesh
 _TET_FACES = np.array([(1, 2, 3), (0, 2, 3), (0, 1, 3), (0, 1, 2)])
 #: Node ids must stay below this for the int64 face keys (n³ < 2⁶³).
 MAX_NODES = 2**21 - 1
+#: A tetrahedron whose |det J| is at most this times its longest edge cubed is degenerate.
+DEGENERATE_REL = 1e-10
+#: Distinct nodes closer than this times the mesh's bounding-box diagonal are duplicates.
+DUPLICATE_REL = 1e-9
 
 
 def _fmt(p) -> str:
@@ -34,9 +38,10 @@ def _fmt(p) -> str:
 
 
 def check_geometry(path, points: np.ndarray, tets: np.ndarray, region: np.ndarray) -> None:
-    """No inverted or degenerate tetrahedron, no two distinct nodes at one place."""
-    from .user_mesh import DEGENERATE_REL, DUPLICATE_REL
-
+    """No coordinate that is not finite, no inverted or degenerate tetrahedron, no two distinct
+    nodes at one place."""
+    if not np.isfinite(points).all():  # read_mesh names the node; this guards other callers
+        raise InvalidMesh(f"{path}: a node has a coordinate that is not a finite number")
     p = points[tets]
     e = p[:, 1:] - p[:, :1]  # (n, 3, 3)
     det = np.einsum("ij,ij->i", np.cross(e[:, 0], e[:, 1]), e[:, 2])

@@ -30,8 +30,19 @@ import numpy as np
 from isj.design import REGIONS
 from isj.errors import InvalidMesh, IsjWarning, MeshError
 
-from .mesh import TetMesh, _cut_free_interface, _orient_faces
+from .mesh import (
+    TetMesh,
+    _cut_free_interface,
+    _openmp_threads_kept,
+    _orient_faces,
+    import_gmsh,
+    initialize_gmsh,
+)
 from .sizing import _BYTES, _EDGES, max_model_bytes
+from .user_checks import (
+    check_geometry,
+    check_topology,
+)
 
 #: Face groups every mesh needs, and the optional one.
 REQUIRED_FACES = ("loaded", "clamped")
@@ -49,14 +60,14 @@ OTHER_VOLUME_TYPES = (
     "pyramid",
     "pyramid13",
 )
-#: A tetrahedron whose |det J| is at most this times its longest edge cubed is degenerate.
-DEGENERATE_REL = 1e-10
-#: Distinct nodes closer than this times the mesh's bounding-box diagonal are duplicates.
-DUPLICATE_REL = 1e-9
 #: A tetra10 mid-edge node farther than this times its edge from the midpoint makes a warning.
 CURVED_REL = 1e-6
 #: Length units accepted for the file's coordinates (metres per unit).
 UNITS_M = {"m": 1.0, "mm": 1e-3, "um": 1e-6}
+#: Extents (m) of a mesh's bounding box outside which its unit is probably wrong: the
+#: incus-stapes joint model spans about 1 mm (docs/model.md §2.2); a box more than 5 cm wide
+#: (larger than a cat's middle ear) or less than 10 µm (thinner than the gap) warns.
+PLAUSIBLE_EXTENT_M = (1e-5, 5e-2)
 
 
 # --------------------------------------------------------------------------- size
@@ -156,13 +167,11 @@ def _read_with_gmsh(path: Path):
     """A meshio.Mesh of a .msh read by gmsh's own API: blocks per entity, cell_sets per physical name."""
     import meshio
 
-    from .mesh import _openmp_threads_kept, import_gmsh
-
     gmsh = import_gmsh()
     if gmsh.isInitialized():
         raise MeshError("gmsh is already initialised in this process")
     with _openmp_threads_kept():
-        gmsh.initialize(readConfigFiles=False, interruptible=False)
+        initialize_gmsh(gmsh)
         try:
             gmsh.option.setNumber("General.Terminal", 0)
             gmsh.open(str(path))
@@ -284,12 +293,17 @@ def read_mesh(path, order: int = 2, unit: str = "m", max_bytes: int | None = Non
     Raises
     ------
     InvalidMesh
-        One line naming the problem: the file, a missing group, an element type, an inverted or
-        degenerate tetrahedron, duplicated nodes or a hanging face (a non-conforming interface),
-        a region touching nothing, a face that is no face of the mesh, or the estimated memory.
-    """
-    from .user_checks import check_geometry, check_topology
+        One line naming the problem: the file, a missing group, an element type, a coordinate
+        that is not a finite number, an inverted or degenerate tetrahedron, duplicated nodes or a
+        hanging face (a non-conforming interface), a region touching nothing, a face that is no
+        face of the mesh, or the estimated memory.
 
+    Warns
+    -----
+    IsjWarning
+        One line with the bounding box when the mesh is far larger or smaller than a joint
+        (:data:`PLAUSIBLE_EXTENT_M`: its unit is probably wrong), and for curved tetra10 edges.
+    """
     path = Path(os.fspath(path))
     if order not in (1, 2):
         raise InvalidMesh(f"order = {order!r}: must be 1 or 2")
@@ -349,6 +363,8 @@ def read_mesh(path, order: int = 2, unit: str = "m", max_bytes: int | None = Non
     points = np.asarray(m.points, dtype=np.float64)[used, :3] * UNITS_M[unit]
     if points.shape[1] != 3:
         raise InvalidMesh(f"{path}: points have {points.shape[1]} coordinates; a volume mesh needs 3")
+    check_finite_points(path, points, used)
+    warn_implausible_size(path, points, unit)
     _check_curved(m, path)
     del m
 
@@ -368,6 +384,47 @@ def read_mesh(path, order: int = 2, unit: str = "m", max_bytes: int | None = Non
         faces["capsule_bonded"] = bonded
         points, tets = _cut_free_interface(points, tets, region, faces, REGIONS)
     return TetMesh(points, tets, region, REGIONS, faces)
+
+
+def check_finite_points(path, points: np.ndarray, node_ids: np.ndarray | None = None) -> None:
+    """Refuse a node of a tetrahedron with a NaN or infinite coordinate (one line, the first such node).
+
+    ``node_ids``: each point's index in the file (0-based; default its row), for the message.
+    """
+    bad = np.flatnonzero(~np.isfinite(points).all(axis=1))
+    if bad.size:
+        k = int(bad[0])
+        node = int(k if node_ids is None else node_ids[k]) + 1
+        shown = ", ".join(repr(float(v)) for v in points[k])
+        raise InvalidMesh(
+            f"{path}: node {node} has a coordinate that is not a finite number ({shown}); "
+            f"{bad.size} such node(s) in all"
+        )
+
+
+def warn_implausible_size(path, points: np.ndarray, unit: str) -> bool:
+    """One :class:`~isj.errors.IsjWarning` line, with the bounding box, when the mesh's largest extent
+    lies outside :data:`PLAUSIBLE_EXTENT_M` (its unit is probably wrong); True if it warned."""
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    extent = float((hi - lo).max())
+    small, large = PLAUSIBLE_EXTENT_M
+    if small <= extent <= large:
+        return False
+    box = " x ".join(f"{v:.3g}" for v in hi - lo)
+    hint = (
+        "micrometres or millimetres read as metres?" if extent > large else "metres read as a smaller unit?"
+    )
+    warnings.warn(
+        f"{path}: the mesh's bounding box is {box} m (unit {unit!r}), from {_point(lo)} to {_point(hi)}; "
+        f"an incus-stapes joint spans about 1e-3 m: {hint} Give the file's unit (--mesh-unit m, mm or um)",
+        IsjWarning,
+        stacklevel=3,
+    )
+    return True
+
+
+def _point(p) -> str:
+    return "(" + ", ".join(f"{v:.3g}" for v in p) + ")"
 
 
 # --------------------------------------------------------------------------- writing

@@ -37,7 +37,8 @@ from pathlib import Path
 import numpy as np
 
 from isj.design import REGIONS, Geometry
-from isj.errors import InvalidMesh, PointOutsideBody
+from isj.errors import ConfigError, InvalidMesh, PointOutsideBody
+from isj.validate import loads_toml
 
 from .angles import face_pairs
 from .boundary import pressure_load
@@ -75,9 +76,11 @@ def read_points(path) -> dict:
     """Read and check a points file; one-line :class:`InvalidMesh` on a bad one."""
     path = Path(path)
     try:
-        spec = tomllib.loads(path.read_text())
+        spec = loads_toml(path.read_text(), str(path))
     except FileNotFoundError:
         raise InvalidMesh(f"{path}: no such file") from None
+    except ConfigError as exc:  # nested too deep
+        raise InvalidMesh(str(exc)) from None
     except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
         raise InvalidMesh(f"{path}: not a readable TOML file ({exc})") from None
     unknown = set(spec) - {"axis", "faces"}
@@ -155,6 +158,8 @@ class UserMeshModel(PedicleJointModel):
     points : a points spec (:func:`read_points` or :func:`default_points`), optional
     points_name : how messages name the points (the file)
 
+    Notes
+    -----
     ``alpha_rad``/``beta_rad`` of its results are the point-pair angles when ``points``
     is given, else the least-squares ones (equal to ``alpha_ls_rad``/``beta_ls_rad``);
     :attr:`angle_definition` says which.

@@ -201,7 +201,7 @@ def lift(geometry: EardrumGeometry, xy_m, on_ring=None, on_manubrium=None) -> np
 
 def _gmsh_flat_mesh(g: EardrumGeometry):
     """Mesh the projected outline with the manubrium embedded; return (xy m, tris, ring, manubrium, umbo)."""
-    from isj.fem.mesh import import_gmsh
+    from isj.fem.mesh import import_gmsh, initialize_gmsh
 
     gmsh = import_gmsh()
     if gmsh.isInitialized():
@@ -209,7 +209,7 @@ def _gmsh_flat_mesh(g: EardrumGeometry):
     scale = 1e3  # build in millimetres: gmsh's tolerances are meant for sizes ~1
     a, b = g.semi_axis_manubrium_m * scale, g.semi_axis_transverse_m * scale
     h = g.mesh_size_m * scale
-    gmsh.initialize(readConfigFiles=False, interruptible=False)
+    initialize_gmsh(gmsh)
     try:
         # Determinism: one thread, fixed seed (as fem.mesh does for the 3-D model).
         for name, value in (
