@@ -16,7 +16,6 @@ import math
 import os
 import socket
 import sys
-import tempfile
 import warnings
 from pathlib import Path
 from urllib.parse import urlsplit
@@ -234,7 +233,17 @@ def add_cache_option(p: argparse.ArgumentParser) -> None:
 
 
 def geometry(args) -> Geometry:
-    """The :class:`Geometry` of ``--geometry`` overrides; a dimension out of bounds is one line."""
+    """The :class:`Geometry` of ``--geometry`` overrides; a dimension out of bounds is one line.
+
+    A dimension given twice is refused: neither value would be the obvious one to use.
+    """
+    seen = {}
+    for key, value in args.geometry:
+        if key in seen:
+            raise UsageError(
+                f"--geometry {key}: given twice ({seen[key]:g} and {value:g} m); give each dimension once"
+            )
+        seen[key] = value
     try:
         return Geometry(**dict(args.geometry))
     except InvalidParameter as exc:  # names the field and its range (isj.design.GEOMETRY_BOUNDS_M)
@@ -265,6 +274,17 @@ def check_model_size(geometry: Geometry | None, order: int, resolution: float, f
         raise UsageError(str(exc)) from None
 
 
+def check_caches(args, *kinds: str) -> None:
+    """Refuse, before any work, a cache this command uses that cannot be used.
+
+    ``kinds`` among :data:`isj.caches.CACHE_KINDS`; the FE result cache is ``--cache`` when the
+    command has it and it is given (:func:`isj.caches.check_cache_dirs`).
+    """
+    from isj.caches import check_cache_dirs
+
+    check_cache_dirs(*kinds, fe_path=getattr(args, "cache", None))
+
+
 def check_solver(name: str) -> None:
     """``--solver``: refused before meshing unless it is ``auto`` or installed here."""
     from isj.fem.solvers import available_backends
@@ -274,30 +294,16 @@ def check_solver(name: str) -> None:
         raise UsageError(f"--solver = {name!r}: not installed here; must be auto or one of {', '.join(have)}")
 
 
-def _nearest_existing(p: Path) -> Path:
-    return next(q for q in (p, *p.parents) if q.exists())
-
-
 def check_writable_place(p: Path, flag: str, text: str) -> None:
     """Refuse ``p`` (absolute) unless its folder exists and is writable or can be created.
 
     The nearest existing folder above ``p`` must be a writable folder (:func:`os.access`), and
     since that says yes to root everywhere, an empty folder is also made there and removed at
-    once (the way :func:`isj.reports.run.check_out_dir` tries it): nothing is left behind.
+    once (:func:`isj.atomic.check_writable_place`): nothing is left behind.
     """
-    above = _nearest_existing(p.parent)
-    if not above.is_dir():
-        raise UsageError(f"{flag} = {text!r}: {str(above)!r} is not a folder")
-    why = None
-    if not os.access(above, os.W_OK | os.X_OK):
-        why = "permission denied"
-    else:
-        try:
-            os.rmdir(tempfile.mkdtemp(prefix=".isj-probe-", dir=above))
-        except OSError as exc:
-            why = exc.strerror or str(exc)
-    if why is not None:
-        raise UsageError(f"{flag} = {text!r}: nothing can be written in {str(above)!r} ({why})")
+    from isj.atomic import check_writable_place as check
+
+    check(p, flag, text, error=UsageError)
 
 
 def check_out_path(path: str | None, flag: str, suffixes: str | tuple[str, ...]) -> Path | None:
@@ -325,29 +331,13 @@ def check_out_dir(path: str, flag: str = "--out", entries: frozenset[str] | None
 
     Refused: an empty name, something that is not a folder, a place where no folder can be made;
     and when ``entries`` is given (the folder is replaced as a whole, :func:`isj.atomic.replace_dir`)
-    also the current folder or one above it, a symbolic link, and a folder holding anything else.
+    also the current folder or one above it, a symbolic link, and a folder holding anything else
+    (one check for every command and the report: :func:`isj.atomic.check_out_folder`).
     """
-    if not path.strip():
-        raise UsageError(f"{flag} = {path!r}: must name a folder (not empty)")
-    out = Path(path)
-    absolute = Path(os.path.abspath(path))
-    cwd = Path.cwd().absolute()
-    replaced = entries is not None
-    if replaced and (absolute.parent == absolute or absolute == cwd or absolute in cwd.parents):
-        raise UsageError(f"{flag} = {path!r}: must not be the current folder, one above it or a root")
-    if replaced and out.is_symlink():
-        raise UsageError(f"{flag} = {path!r}: is a symbolic link; give the folder it points to")
-    if out.exists():
-        if not out.is_dir():
-            raise UsageError(f"{flag} = {path!r}: exists and is not a folder")
-        other = sorted(q.name for q in out.iterdir() if replaced and q.name not in entries)
-        if other:
-            raise UsageError(
-                f"{flag} = {path!r}: holds {other[0]!r}, which this command does not write; "
-                "must be a new or empty folder or one this command wrote"
-            )
-    check_writable_place(absolute, flag, path)
-    return out
+    from isj.atomic import check_out_folder
+
+    check_out_folder(path, flag, entries, error=UsageError)
+    return Path(path)
 
 
 def print_json(obj) -> None:
@@ -430,7 +420,8 @@ def check_scheduler(address: str | None, timeout_s: float = SCHEDULER_TIMEOUT_S)
 
 def load_calibration(path: str | None):
     """The calibration at ``path`` (default: the shipped one); a bad file is a usage error."""
-    from isj.lumped.artifact import Calibration, CorruptCalibration, default_calibration
+    from isj.errors import CorruptCalibration
+    from isj.lumped.artifact import Calibration, default_calibration
 
     try:
         return Calibration.load(path) if path else default_calibration()
@@ -451,20 +442,21 @@ def fail(message: str) -> int:
 
 @contextlib.contextmanager
 def isj_warnings_as_lines():
-    """Show every :class:`~isj.errors.IsjWarning` as one ``isj: warning: ...`` line on stderr.
+    """Show every warning as one ``isj: warning: ...`` line on stderr.
 
-    Always, not once per place: a second command run in the same process (a test, a notebook)
-    must warn again. Other warnings keep Python's format.
+    An :class:`~isj.errors.IsjWarning` always, not once per place: a second command run in the
+    same process (a test, a notebook) must warn again. A library's warning (scipy's, numpy's)
+    keeps Python's filters but is shown on one line too, its category after it, instead of
+    Python's two lines (file, line number and source).
     """
     with warnings.catch_warnings():
         warnings.simplefilter("always", IsjWarning)
-        shown = warnings.showwarning
 
         def show(message, category, filename, lineno, file=None, line=None):
-            if issubclass(category, IsjWarning):
-                print(f"isj: warning: {message}", file=sys.stderr)
-            else:
-                shown(message, category, filename, lineno, file, line)
+            text = " ".join(str(message).split())
+            if not issubclass(category, IsjWarning):
+                text = f"{text} ({category.__name__})"
+            print(f"isj: warning: {text}", file=sys.stderr)
 
         warnings.showwarning = show
         yield

@@ -10,12 +10,13 @@ from __future__ import annotations
 import sys
 
 from isj import __version__
+from isj.caches import matplotlib_in_cache
 from isj.errors import IsjError, UsageError
 
-from . import _common, calibrate, ear, explore, fem, lumped, report, rom, sweep, uq
+from . import _common, app, calibrate, ear, explore, fem, lumped, report, rom, sweep, uq
 
 #: Command modules in ``isj --help`` order.
-COMMANDS = (fem, lumped, calibrate, explore, sweep, report, ear, rom, uq)
+COMMANDS = (fem, lumped, calibrate, explore, sweep, report, ear, rom, uq, app)
 
 
 def build_parser() -> _common.Parser:
@@ -35,7 +36,7 @@ def main(argv: list[str] | None = None) -> int:
     line before anything was computed or written; 130: interrupted.
     """
     try:
-        with _common.isj_warnings_as_lines():
+        with _common.isj_warnings_as_lines(), matplotlib_in_cache():
             args = build_parser().parse_args(argv)
             return args.func(args)
     except (UsageError, ValueError) as exc:

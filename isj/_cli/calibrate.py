@@ -100,33 +100,8 @@ def _adaptive_options(p) -> None:
     )
 
 
-def _adaptive(args, settings, cache, rom):
-    """The calibration of ``isj calibrate --adaptive`` with the certified surrogate ``rom``."""
-    from isj.calibration.adaptive import calibrate_adaptive
-    from isj.fem.batch import evaluate_design
-
-    log = None if args.quiet else (lambda line: print(f"isj: adaptive {line}", flush=True))
-    return calibrate_adaptive(
-        evaluate_design,
-        settings,
-        cache,
-        rom,
-        samples=args.samples,
-        validation=args.validation,
-        seed=args.seed,
-        scheduler=args.scheduler,
-        progress=not args.quiet,
-        log=log,
-        tolerance=args.tolerance,
-        n_dense=args.guard_sample,
-        per_round=args.per_round,
-        max_rounds=args.rounds,
-    )
-
-
 def calibrate(args) -> int:
-    from isj.calibration.pipeline import calibrate as fit
-    from isj.calibration.pipeline import calibrate_dynamics, calibrate_geometry
+    from isj.calibration.workflow import run_calibration
     from isj.fem.batch import evaluate_design, evaluate_modes, fe_settings
 
     from ..atomic import atomic_write_text
@@ -135,6 +110,7 @@ def calibrate(args) -> int:
     # every input, the output path, the model's size and the scheduler: before any FE run
     out = c.check_out_path(args.out, "--out", ".json")
     c.check_model_size(None, args.order, args.resolution)
+    c.check_caches(args, "mesh", "fe", *(("rom",) if args.adaptive else ()))
     c.check_scheduler(args.scheduler)
     settings = fe_settings(order=args.order, resolution=args.resolution, joint=args.joint)
     if args.samples is None:
@@ -142,6 +118,7 @@ def calibrate(args) -> int:
 
         args.samples = GEOMETRY_SAMPLES if args.geometry_domain else 64
     cache = fe_cache_dir(args.cache)
+    rom = None
     if args.adaptive:
         from isj.errors import UsageError
 
@@ -155,41 +132,26 @@ def calibrate(args) -> int:
         rom, why = load_surrogate(args.order, args.resolution)  # minutes on a mesh's first build
         if rom is None:
             return c.fail(f"--adaptive needs the certified surrogate: {why}")
-        cal = _adaptive(args, settings, cache, rom)
-    elif args.geometry_domain:
-        cal = calibrate_geometry(
-            evaluate_design,
-            settings,
-            cache,
-            samples=args.samples,
-            validation=args.validation,
-            seed=args.seed,
-            max_workers=args.workers,
-            progress=not args.quiet,
-            scheduler=args.scheduler,
-        )
-    else:
-        cal = fit(
-            evaluate_design,
-            settings,
-            cache,
-            samples=args.samples,
-            validation=args.validation,
-            seed=args.seed,
-            scheduler=args.scheduler,
-            progress=not args.quiet,
-        )
-    if args.modal_samples:
-        cal = calibrate_dynamics(
-            cal,
-            evaluate_modes,
-            settings,
-            cache,
-            samples=args.modal_samples,
-            validation=max(args.modal_samples // 2, 2),
-            seed=args.seed + 100,
-            progress=not args.quiet,
-        )
+    cal = run_calibration(
+        evaluate_design,
+        evaluate_modes,
+        settings,
+        cache,
+        samples=args.samples,
+        validation=args.validation,
+        seed=args.seed,
+        modal_samples=args.modal_samples,
+        geometry_domain=args.geometry_domain,
+        max_workers=args.workers,
+        scheduler=args.scheduler,
+        progress=not args.quiet,
+        surrogate=rom,
+        tolerance=args.tolerance,
+        n_dense=args.guard_sample,
+        per_round=args.per_round,
+        max_rounds=args.rounds,
+        log=None if args.quiet else (lambda line: print(f"isj: adaptive {line}", flush=True)),
+    )
     atomic_write_text(out, cal.to_json())
     t, v = cal.training, cal.validation
     print(

@@ -48,7 +48,8 @@ def register(sub) -> None:
         p,
         5000.0,
         " with the drum's modes, 1500 with --drum-modes 0 (below the FE eardrum modes); higher "
-        "bands are allowed, the FE checks say how far off; 20000 with --fe",
+        "bands up to the limit are allowed, the FE checks say how far off; 20000 with --fe",
+        model="ear",
     )
     p.set_defaults(fmax_hz=None)  # resolved by sweep(): 5 kHz, 1.5 kHz without modes, 20 kHz --fe
     p.add_argument(
@@ -87,13 +88,14 @@ def register(sub) -> None:
         default="ear_sweep",
         help="output folder (default ./ear_sweep): new, empty or a previous ear sweep's, replaced as a whole",
     )
-    p.set_defaults(func=sweep)
+    p.set_defaults(func=sweep, nu=None)  # None: the calibration's (check_nu), the default with --fe
 
 
 def _check_joint(args) -> None:
     """Before any model is built: the embedded joint model's estimated size (none if rigid)."""
     if not args.rigid_joint:
         c.check_model_size(None, args.order, args.resolution)
+    c.check_caches(args, "mesh")
 
 
 def _ear_model(args):
@@ -126,7 +128,7 @@ def solve(args) -> int:
     materials = c.materials(args)
     _check_joint(args)
     model, ear_materials = _ear_model(args)
-    res = model.solve(materials, ear_materials)
+    res = model.static(materials, ear_materials)
     out = res.to_dict() | {"n_dofs": model.n_dofs, "rigid_joint": args.rigid_joint}
     c.check_finite(out, c.design_inputs(args))
     if args.json:
@@ -148,7 +150,7 @@ def cases(args) -> int:
     base = Materials(nu=args.nu)
     _check_joint(args)
     model, ear_materials = _ear_model(args)
-    res = {case.name: model.solve(case.materials(base), ear_materials) for case in THESIS_CASES}
+    res = {case.name: model.static(case.materials(base), ear_materials) for case in THESIS_CASES}
     rows = [{"case": k} | r.to_dict() for k, r in res.items()]
     c.check_finite(rows, f"--nu {args.nu:g}, --drum-e {args.drum_e:g}")
     if args.json:
@@ -159,103 +161,49 @@ def cases(args) -> int:
     return 0
 
 
-def _pair(z) -> list[float]:
-    return [float(z.real), float(z.imag)]
-
-
 def sweep(args) -> int:
-    """Lumped ear's frequency response per Pa (CSV, NPZ, Bode PNG, JSON), FE whole-ear spot checks."""
+    """Lumped ear's frequency response per Pa (CSV, NPZ, Bode PNG, JSON), FE whole-ear spot checks.
+
+    The options are checked here; :func:`isj.studies.ear_workflow.run_ear_sweep` computes.
+    """
     import numpy as np
 
     from isj.calibration.checks import warn_outside_domain
-    from isj.studies.sweeps import ear_sweep
+    from isj.studies.ear_workflow import run_ear_sweep
 
     from ..atomic import replace_dir
     from ..ear import EarMaterials
     from ..provenance import write_run_record
+    from .lumped import check_nu
 
     if args.fmax_hz is None:
         args.fmax_hz = 20e3 if args.fe else (5000.0 if args.drum_modes else 1500.0)
     if args.fe:
         return _fe_sweep(args)
-    out, cal, m, fe_freq = sweep_setup(args, EAR_SWEEP_FILES)
+    out, cal, m, fe_freq = sweep_setup(args, EAR_SWEEP_FILES, "ear")
+    if not args.rigid_joint:  # the lumped joint inside the lumped ear holds at its calibration's ratio
+        check_nu(cal, args.nu)
     _check_joint(args)
     if not args.rigid_joint:
         warn_outside_domain(cal, c.moduli(m))
-    damping = damping_from_args(args)
-    t0 = time.perf_counter()
-    sw = ear_sweep(
+    run = run_ear_sweep(
         cal,
         np.geomspace(args.fmin_hz, args.fmax_hz, args.n),
         m,
         EarMaterials(drum_e_pa=args.drum_e),
+        damping_from_args(args),
+        fe_freq,
         rigid_joint=args.rigid_joint,
-        damping=damping,
         drum_modes=args.drum_modes,
+        tolerance=args.tolerance,
+        order=args.order,
+        resolution=args.resolution,
+        check_lumped=lambda sw: check_sweep_finite(sw, args, ("static", sw.static)),
     )
-    check_sweep_finite(sw, args, ("static", sw.static))
-    t1 = time.perf_counter()
-    # FE whole-ear static spot check (low frequency), before anything is written
-    fe_model, ear_materials = _ear_model(args)
-    fe = fe_model.solve(m, ear_materials)
-    t2 = time.perf_counter()
-    fe_vals = {
-        "umbo_m": fe.umbo_m_per_pa,
-        "stapes_m": fe.footplate_piston_m_per_pa,
-        "alpha_rad": fe.alpha_rad_per_pa,
-        "beta_rad": fe.beta_rad_per_pa,
-    }
-    errors = sw.static_errors(fe_vals)
-    passed = max(errors["umbo_m"], errors["stapes_m"]) <= args.tolerance
-    check = {
-        "freq_hz": float(sw.freq_hz[0]),
-        "compared_with": "lumped static limit (0 Hz); FE values are static, marked at the lowest frequency",
-        **{f"fe_{k}": [float(v), 0.0] for k, v in fe_vals.items() if v is not None},
-        **{f"lumped_static_{k}": float(sw.static[j]) for j, k in enumerate(sw.outputs)},
-        **{f"{k}_rel_error": e for k, e in errors.items()},
-        "passed": passed,
-    }
-    # FE whole-ear harmonic spot checks inside the band (same masses and damping as the lumped ear)
-    fe_checks = []
-    if fe_freq.size:
-        keys = sw.outputs if not args.rigid_joint else sw.outputs[:2]
-
-        def fe_response(f):
-            return fe_model.harmonic(f, m, ear_materials, damping).outputs()
-
-        comp = sw.fe_checks(fe_freq, fe_response, keys)
-        ok = comp.passed(args.tolerance, ("umbo_m", "stapes_m"))
-        for i, fr in enumerate(comp.freq_hz):
-            fe_checks.append(
-                {
-                    "freq_hz": float(fr),
-                    **{f"fe_{k}": _pair(comp.fe[i, j]) for j, k in enumerate(keys)},
-                    **{f"lumped_{k}": _pair(comp.lumped[i, j]) for j, k in enumerate(keys)},
-                    **{f"{k}_rel_error": e for k, e in comp.errors(i).items()},
-                    "passed": bool(ok[i]),
-                }
-            )
-    t3 = time.perf_counter()
-    all_passed = passed and all(ck["passed"] for ck in fe_checks)
-    summary = {
-        "n_freq": int(args.n),
-        "rigid_joint": bool(args.rigid_joint),
-        "drum_modes": int(args.drum_modes),
-        "coordinates": list(sw.model.coordinates),
-        "natural_freq_hz": [float(v) for v in sw.natural_freq_hz],
-        "damping_ratio": [float(v) for v in sw.damping_ratio],
-        "damping": damping.to_dict(),
-        "static_per_pa": {k: float(sw.static[j]) for j, k in enumerate(sw.outputs)},
-        "fe_check": check,
-        "fe_checks": fe_checks,
-        "fe_n_dofs": fe_model.n_dofs,
-        "passed": all_passed,
-        "tolerance": args.tolerance,
-        "timings_s": {"lumped": t1 - t0, "fe": t2 - t1, "fe_harmonic": t3 - t2},
-    }
+    sw, summary, errors, fe_vals = run.sweep, run.summary, run.static_errors, run.fe_static
     c.check_finite(summary, c.design_inputs(args))
     with replace_dir(out) as staging:  # the four files appear together or not at all
-        _write(args, staging, sw, check, fe_checks)
+        _write(args, staging, sw, run.check, run.fe_checks)
         write_run_record(staging / "ear_sweep.json", args, summary)
     if args.json:
         c.print_json(summary)
@@ -269,16 +217,16 @@ def sweep(args) -> int:
             f"  static: umbo {s[0] * 1e9:.2f} nm/Pa (FE {fe_vals['umbo_m'] * 1e9:.2f}, "
             f"{100 * errors['umbo_m']:.2f} %), stapes {s[1] * 1e9:.2f} nm/Pa "
             f"(FE {fe_vals['stapes_m'] * 1e9:.2f}, {100 * errors['stapes_m']:.2f} %) "
-            f"{'ok' if passed else 'EXCEEDS tolerance'}"
+            f"{'ok' if run.check['passed'] else 'EXCEEDS tolerance'}"
         )
-        for ck in fe_checks:
+        for ck in run.fe_checks:
             verdict = "ok" if ck["passed"] else "EXCEEDS tolerance"
             print(
                 f"  FE check at {ck['freq_hz']:.0f} Hz: umbo {100 * ck['umbo_m_rel_error']:.2f} %, "
                 f"stapes {100 * ck['stapes_m_rel_error']:.2f} % {verdict}"
             )
         print(f"wrote {out}/ear_sweep.csv, ear_sweep.npz, ear_bode.png, ear_sweep.json")
-    if not all_passed:
+    if not run.passed:
         return c.fail(f"an FE spot check exceeds the tolerance {args.tolerance:g}")
     return 0
 
@@ -333,7 +281,7 @@ def _fe_sweep(args) -> int:
     from ..atomic import replace_dir
     from ..provenance import write_run_record
 
-    out, _, m, _ = sweep_setup(args, EAR_SWEEP_FILES)
+    out, _, m, _ = sweep_setup(args, EAR_SWEEP_FILES, "ear", lumped=False)
     _check_joint(args)
     damping = damping_from_args(args)
     freqs = np.geomspace(args.fmin_hz, args.fmax_hz, args.n)
@@ -342,7 +290,7 @@ def _fe_sweep(args) -> int:
     t1 = time.perf_counter()
     rom = es.reduced_ear(model, m, ear_materials, fmax_hz=args.fmax_hz)
     t2 = time.perf_counter()
-    resp = rom.response(freqs, damping)
+    resp = rom.frequency_response(freqs, damping)
     t3 = time.perf_counter()
     check_hz = es.check_frequencies_hz(args.fmin_hz, args.fmax_hz, max(args.fe_checks, 3))
     tol = es.CHECK_TOLERANCE  # read here, at the call: 1 % and 1 deg
@@ -363,9 +311,9 @@ def _fe_sweep(args) -> int:
         "fe_n_dofs": model.n_dofs,
         "reduced_n_dofs": rom.n_dofs,
         "reduction": {k: v for k, v in rom.info.items() if k not in ("interior", "timings_s")},
-        "natural_freq_hz": [float(v) for v in rom.natural_frequencies(6)],
+        "natural_freq_hz": [float(v) for v in rom.natural_frequencies_hz(6)],
         "damping": damping.to_dict(),
-        "static_stapes_m_per_pa": float(static["footplate"] @ rom.piston_direction),
+        "static_stapes_m_per_pa": float(static.footplate_m_per_pa @ rom.piston_direction),
         "checks": chk,
         "passed": chk["passed"],
         "timings_s": {

@@ -104,7 +104,8 @@ def load_surrogate(
     from isj.errors import MeshError
 
     try:
-        from isj.fem.rom import DesignSpace, reduced_model
+        from isj.design_space import DesignSpace
+        from isj.fem.rom import reduced_model
 
         space = DesignSpace(incus_e_pa=Materials().incus_e_pa if incus_e_pa is None else float(incus_e_pa))
         return reduced_model(geometry, order, resolution, space, progress=progress), None
@@ -147,6 +148,7 @@ def explore(args) -> int:
     out = c.check_out_dir(args.out, "--out", out_entries()) if args.out is not None else None
     if args.spot_checks or guarded:
         c.check_model_size(geometry, args.order, args.resolution)
+        c.check_caches(args, "mesh", "fe", *(("rom",) if guarded else ()))
     space = ExploreSpace(**{f"{r}_e_pa": getattr(args, f"{r}_e") for r in c.MODULUS_OPTIONS})
     total = count_designs(space, args.n, args.sample)  # before anything of that size is allocated
     flag = f"--sample = {args.sample}" if args.sample is not None else f"--n = {args.n}"
@@ -160,7 +162,7 @@ def explore(args) -> int:
     t0 = time.perf_counter()
     rom, why = _surrogate(args) if guarded else (None, "--no-guard")
     t_load = time.perf_counter() - t0
-    # after the surrogate: its first build takes minutes, and the settings carry the FE code's digest
+    # after the surrogate: its first build takes minutes, and the settings carry the FE results versions
     settings = fe_settings(
         order=args.order, resolution=args.resolution, geometry=geometry, pressure_pa=args.pressure
     )

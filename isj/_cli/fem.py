@@ -9,6 +9,10 @@ from isj.errors import UsageError
 
 from . import _common as c
 
+#: What ``isj fem modes --vtu-dir`` writes (``mode_01.vtu``, ... and ``modes.pvd``); a folder
+#: holding anything else is refused.
+MODES_FILES = frozenset({"modes.pvd", *(f"mode_{i:02d}.vtu" for i in range(1, 101))})
+
 
 def add_joint_options(p) -> None:
     """``--joint`` and ``--layer-shear-pa`` (docs/model.md 2.12)."""
@@ -25,11 +29,20 @@ def add_joint_options(p) -> None:
     p.add_argument(
         "--layer-shear-pa",
         type=c.float_option("--layer-shear-pa", 0.0, 1e12),
-        default=DEFAULT_LAYER_SHEAR_PA,
+        default=None,  # None: DEFAULT_LAYER_SHEAR_PA with --joint layer; refused with another joint
         metavar="PA",
-        help="with --joint layer: the layer's shear modulus G_xz = G_yz in Pa "
+        help="with --joint layer only: the layer's shear modulus G_xz = G_yz in Pa "
         f"(default {DEFAULT_LAYER_SHEAR_PA:g})",
     )
+
+
+def check_joint_options(args) -> None:
+    """``--layer-shear-pa`` only with ``--joint layer``: the other joints have no layer to use it."""
+    if getattr(args, "layer_shear_pa", None) is not None and args.joint != "layer":
+        raise UsageError(
+            f"--layer-shear-pa = {args.layer_shear_pa:g}: only with --joint layer "
+            f"(the {args.joint} joint has no layer; it would be unused)"
+        )
 
 
 def _joint_out(args, model, res) -> dict:
@@ -140,8 +153,10 @@ def register(sub) -> None:
 def _checked_geometry(args):
     """The geometry, the solver and the model's estimated size, all checked before meshing."""
     geometry = c.geometry(args)
+    check_joint_options(args)
     c.check_solver(args.solver)
     c.check_model_size(geometry, args.order, args.resolution)
+    c.check_caches(args, "mesh")
     return geometry
 
 
@@ -168,6 +183,7 @@ def _user_model(args):
     if args.geometry or args.resolution != 1.0:
         raise UsageError("--geometry, --resolution: not with --mesh (the mesh file is the geometry)")
     c.check_solver(args.solver)
+    c.check_caches(args, "mesh")  # the solver's ordering is kept there
     points_file = getattr(args, "points", None)
     try:
         points = read_points(points_file) if points_file is not None else None
@@ -194,6 +210,7 @@ def solve(args) -> int:
 
     vtu = c.check_out_path(args.vtu, "--vtu", ".vtu")
     materials = c.materials(args)
+    check_joint_options(args)
     if args.mesh is not None:
         if args.joint != "bonded":
             raise UsageError(f"--joint {args.joint}: only on the built-in mesh, not with --mesh")
@@ -203,7 +220,7 @@ def solve(args) -> int:
     geometry = _checked_geometry(args)
     t0 = time.perf_counter()
     model = _model(args, geometry)
-    res = model.solve(materials, args.pressure)
+    res = model.static(materials, args.pressure)
     timings = dict(model.timings_s, total=time.perf_counter() - t0)
     out = res.to_dict() | {
         "n_tets": model.n_tets,
@@ -239,7 +256,7 @@ def _solve_user_mesh(args, vtu, materials) -> int:
 
     t0 = time.perf_counter()
     model = _user_model(args)
-    res = model.solve(materials, args.pressure)
+    res = model.static(materials, args.pressure)
     timings = dict(model.timings_s, total=time.perf_counter() - t0)
     out = res.to_dict() | {
         "angle_definition": model.angle_definition,
@@ -294,7 +311,7 @@ def cases(args) -> int:
     model = _model(args, geometry)
     rows, results = [], {}
     for case in THESIS_CASES:
-        res = model.solve(case.materials(base), args.pressure)
+        res = model.static(case.materials(base), args.pressure)
         results[case.name] = res
         moduli = {k: getattr(case, k) for k in ("pedicle_e_pa", "gap_e_pa", "capsule_e_pa")}
         rows.append({"case": case.name} | moduli | res.to_dict() | _joint_out(args, model, res))
@@ -351,6 +368,7 @@ def convergence(args) -> int:
         resolutions = args.resolutions or (0.71, 1.0, 1.41)
         for r in resolutions:
             c.check_model_size(None, args.order, r, "--resolutions")
+        c.check_caches(args, "mesh")
         rows = joint_study(args.order, resolutions)
         c.check_finite(rows, f"--order {args.order}")
         if args.json:
@@ -367,6 +385,7 @@ def convergence(args) -> int:
     if args.direction is None:
         raise UsageError("--direction: required for --model cantilever (x or y)")
     plot = c.check_out_path(args.plot, "--plot", (".png", ".pdf", ".svg"))
+    c.check_caches(args, "mesh")
     rows = cantilever_study(
         direction=args.direction, order=args.order, nu=args.nu, resolutions=args.resolutions
     )
@@ -395,7 +414,9 @@ def modes(args) -> int:
     from isj.fem.dynamics import modes as fe_modes
     from isj.fem.export import write_modes
 
-    out_dir = c.check_out_dir(args.vtu_dir, "--vtu-dir") if args.vtu_dir is not None else None
+    out_dir = None
+    if args.vtu_dir is not None:  # a new or empty folder, or one holding only what modes writes
+        out_dir = c.check_out_dir(args.vtu_dir, "--vtu-dir", MODES_FILES)
     materials = c.materials(args)
     geometry = _checked_geometry(args)
     t0 = time.perf_counter()

@@ -58,6 +58,21 @@ def calibrated_nu(cal) -> float:
     return float(nu) if isinstance(nu, int | float) and not isinstance(nu, bool) else Materials().nu
 
 
+def check_nu(cal, nu: float | None) -> float:
+    """``--nu`` against the Poisson's ratio ``cal`` was fitted at: None or that ratio, else refused.
+
+    The lumped model holds at its calibration's ratio only; every command that runs it (``isj
+    lumped solve``, ``isj sweep``, ``isj ear sweep``) refuses another before any work.
+    """
+    fitted = calibrated_nu(cal)
+    if nu is not None and nu != fitted:
+        raise UsageError(
+            f"--nu = {nu:g}: the lumped model is calibrated at nu = {fitted:g} only; "
+            f"omit --nu or give {fitted:g} (the FE model takes any nu: isj fem solve --nu)"
+        )
+    return fitted
+
+
 def calibration_and_geometry(args):
     """(calibration, geometry) of ``--calibration`` and ``--geometry``; warns outside the calibrated geometry.
 
@@ -74,7 +89,8 @@ def calibration_and_geometry(args):
         if joint is not None and joint != cal.joint:
             raise UsageError(f"--joint = {joint}: --calibration was fitted with the {cal.joint} joint")
     else:
-        from isj.lumped.artifact import CorruptCalibration, calibration_for
+        from isj.errors import CorruptCalibration
+        from isj.lumped.artifact import calibration_for
 
         try:
             cal = calibration_for(g, joint or "bonded")
@@ -112,13 +128,7 @@ def solve(args) -> int:
     from ._region import print_region, region_marks
 
     cal, geometry = calibration_and_geometry(args)
-    nu = calibrated_nu(cal)
-    if args.nu is not None and args.nu != nu:
-        raise UsageError(
-            f"--nu = {args.nu:g}: the lumped model is calibrated at nu = {nu:g} only; "
-            f"omit --nu or give {nu:g} (the FE model takes any nu: isj fem solve --nu)"
-        )
-    args.nu = nu
+    args.nu = check_nu(cal, args.nu)
     designs = c.moduli(c.materials(args))
     warn_outside_domain(cal, designs, geometry)
     r = lumped_static(cal, designs, geometry, pressure_pa=args.pressure)

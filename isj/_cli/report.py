@@ -30,13 +30,15 @@ def register(sub) -> None:
 
 
 def report(args) -> int:
-    from isj.lumped.artifact import CorruptCalibration
-    from isj.reports.config import ConfigError, load_config
+    from isj.caches import check_cache_dirs
+    from isj.errors import ConfigError, CorruptCalibration
+    from isj.reports.config import load_config
     from isj.reports.run import check_out_dir, load_calibration, run_report
 
     # everything is validated before the output folder is created: the folder (new, empty or a
     # previous report; a place where a folder can be made), the configuration, the calibration
     check_out_dir(args.out, "--out")
+    check_cache_dirs("mesh", "fe", "rom", "report")
     try:
         config = load_config(args.config, args.set or [])
         calibration = load_calibration(config)

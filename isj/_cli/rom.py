@@ -66,7 +66,7 @@ def _surrogate_options(p) -> None:
 
 
 def _space(args):
-    from isj.fem.rom import DesignSpace
+    from isj.design_space import DesignSpace
 
     return DesignSpace(incus_e_pa=args.incus_e, nu=args.nu)
 
@@ -75,6 +75,7 @@ def _checked(args):
     """Geometry and model size checked before anything is meshed or built."""
     geometry = c.geometry(args)
     c.check_model_size(geometry, args.order, args.resolution)
+    c.check_caches(args, "mesh", "rom")
     return geometry
 
 
@@ -137,7 +138,7 @@ def build(args) -> int:
 
 
 def solve(args) -> int:
-    from isj.fem.rom import DesignSpace
+    from isj.design_space import DesignSpace
 
     materials = c.materials(args)
     space = DesignSpace(incus_e_pa=args.incus_e, nu=args.nu)
@@ -150,7 +151,7 @@ def solve(args) -> int:
     geometry = _checked(args)
     t0 = time.perf_counter()
     rom = _surrogate(args, geometry, space, args.json)
-    out = rom.solve(materials, args.pressure)
+    out = rom.static(materials, args.pressure).to_dict()
     out["timings_s"] = {"total": time.perf_counter() - t0}
     c.check_finite(out, c.design_inputs(args))
     if args.json:

@@ -9,25 +9,23 @@ from __future__ import annotations
 import argparse
 import math
 
-from isj.errors import UsageError
+from isj.errors import InvalidParameter, UsageError
+from isj.validate import MAX_LOSS_FACTOR, MAX_RAYLEIGH_TERM  # noqa: F401 - re-exported, their old home
 
 from . import _common as c
-
-#: Largest Rayleigh term over the band: ωb at --fmax-hz and a/ω at --fmin-hz. At 100 the damping
-#: force is a hundred times the elastic (or inertial) one, so the response is the damping law's,
-#: not the structure's (the defaults give ωb = 12.6 at 20 kHz); far past it (b = 1e300) the
-#: damped stiffness overflows and the damping ratios come out NaN.
-MAX_RAYLEIGH_TERM = 100.0
-#: Largest structural loss factor: the lossiest solids (polymers in their glass transition) reach
-#: about 2, the middle ear's soft tissues about 0.3.
-MAX_LOSS_FACTOR = 10.0
 
 #: What ``isj sweep`` writes into --out; a folder holding anything else is refused.
 SWEEP_FILES = frozenset({"sweep.csv", "sweep.npz", "bode.png", "sweep.json"})
 
 
-def add_band_options(p: argparse.ArgumentParser, fmax_hz: float = 20e3, why: str = "") -> None:
-    """``--fmin-hz``, ``--fmax-hz`` and ``--n`` (log-spaced frequencies)."""
+def add_band_options(
+    p: argparse.ArgumentParser, fmax_hz: float = 20e3, why: str = "", model: str = "chain"
+) -> None:
+    """``--fmin-hz``, ``--fmax-hz`` (at most ``model``'s limit, :data:`isj.validate.BAND_LIMITS`)
+    and ``--n`` (log-spaced frequencies)."""
+    from isj.validate import BAND_LIMITS
+
+    limit, reason = BAND_LIMITS[model]
     p.add_argument(
         "--fmin-hz", type=c.float_option("--fmin-hz", lo=0.0), default=100.0, help="lowest frequency (Hz)"
     )
@@ -35,7 +33,7 @@ def add_band_options(p: argparse.ArgumentParser, fmax_hz: float = 20e3, why: str
         "--fmax-hz",
         type=c.float_option("--fmax-hz", lo=0.0),
         default=fmax_hz,
-        help=f"highest frequency (Hz; default {fmax_hz:g}{why})",
+        help=f"highest frequency (Hz; default {fmax_hz:g}{why}; at most {limit:g}: {reason})",
     )
     p.add_argument(
         "--n",
@@ -49,7 +47,12 @@ def _damping_value(option: str, names: tuple[str, ...], unit: str, hi: float = m
     """argparse ``type`` for ``VALUE`` (every name) or ``NAME=VALUE`` (one name): (name or None, value)."""
 
     def parse(text: str):
-        name, _, value = text.rpartition("=")
+        name, eq, value = text.rpartition("=")
+        if eq and not name:
+            raise argparse.ArgumentTypeError(
+                f"{option} {text}: empty name before '='; give VALUE or NAME=VALUE, NAME one of "
+                f"{', '.join(names)}"
+            )
         if name and name not in names:
             raise argparse.ArgumentTypeError(
                 f"{option} {text}: unknown name {name!r}; must be one of {', '.join(names)}"
@@ -140,41 +143,39 @@ def damping_inputs(args) -> str:
 
 
 def check_rayleigh(args) -> None:
-    """Every Rayleigh a and b within :data:`MAX_RAYLEIGH_TERM` over the band [--fmin-hz, --fmax-hz]."""
-    w_min, w_max = 2 * math.pi * args.fmin_hz, 2 * math.pi * args.fmax_hz
-    d = damping_from_args(args)
-    name, b = max(d.rayleigh_b_s.items(), key=lambda kv: kv[1])
-    if b * w_max > MAX_RAYLEIGH_TERM:
-        raise UsageError(
-            f"--rayleigh-b {name}={b:g} s: omega b = {b * w_max:.3g} at --fmax-hz "
-            f"{args.fmax_hz:g}; must be <= {MAX_RAYLEIGH_TERM:g} over the band, i.e. --rayleigh-b "
-            f"<= {MAX_RAYLEIGH_TERM / w_max:.3g} s"
-        )
-    name, a = max(d.rayleigh_a_per_s.items(), key=lambda kv: kv[1])
-    if a / w_min > MAX_RAYLEIGH_TERM:
-        raise UsageError(
-            f"--rayleigh-a {name}={a:g} 1/s: a/omega = {a / w_min:.3g} at --fmin-hz "
-            f"{args.fmin_hz:g}; must be <= {MAX_RAYLEIGH_TERM:g} over the band, i.e. --rayleigh-a "
-            f"<= {MAX_RAYLEIGH_TERM * w_min:.3g} 1/s"
-        )
+    """Every loss factor within :data:`MAX_LOSS_FACTOR` and every Rayleigh a and b within
+    :data:`MAX_RAYLEIGH_TERM` over the band [--fmin-hz, --fmax-hz] (:func:`isj.validate.check_damping`,
+    the same limits as the report's ``[sweep]``)."""
+    from isj.validate import check_damping
+
+    try:
+        check_damping(damping_from_args(args), args.fmin_hz, args.fmax_hz)
+    except InvalidParameter as exc:
+        raise UsageError(str(exc)) from None
 
 
-def sweep_setup(args, files: frozenset[str]):
+def sweep_setup(args, files: frozenset[str], model: str = "chain", lumped: bool = True):
     """Checks shared by ``isj sweep`` and ``isj ear sweep``: (out dir, calibration, materials, fe freq).
 
-    Everything is checked here, before any model is built: the band, the damping over it, the
+    Everything is checked here, before any model is built: the band (its top within ``model``'s,
+    ``"chain"`` or ``"ear"``: :data:`isj.validate.BAND_LIMITS`), the damping over it, the
     counts, the output folder (new, empty, or one holding only ``files``: it is replaced as a
-    whole) and the calibration.
+    whole) and the calibration. Without ``--nu``, ν is the calibration's (``lumped``: the lumped
+    model runs, :func:`isj._cli.lumped.check_nu`), else the default design's.
     """
     from isj.studies.sweeps import fe_check_frequencies
     from isj.validate import check_band
 
-    check_band(args.fmin_hz, args.fmax_hz, ("--fmin-hz", "--fmax-hz"))
+    check_band(args.fmin_hz, args.fmax_hz, ("--fmin-hz", "--fmax-hz"), model)
     check_rayleigh(args)
     if not 0 <= args.fe_checks <= 50:
         raise UsageError(f"--fe-checks = {args.fe_checks}: must be an integer in [0, 50]")
     out = c.check_out_dir(args.out, "--out", files)
     cal = c.load_calibration(args.calibration)
+    if args.nu is None:
+        from .lumped import calibrated_nu
+
+        args.nu = calibrated_nu(cal) if lumped else c.DEFAULT_NU
     fe_freq = fe_check_frequencies(args.fmin_hz, args.fmax_hz, args.fe_checks)
     return out, cal, c.materials(args), fe_freq
 
@@ -212,7 +213,7 @@ def register(sub) -> None:
 
     add_joint_option(p)
     c.add_json_option(p)
-    p.set_defaults(func=sweep)
+    p.set_defaults(func=sweep, nu=None)  # None: the calibration's (check_nu)
 
 
 def sweep(args) -> int:
@@ -223,6 +224,7 @@ def sweep(args) -> int:
 
     from ..atomic import replace_dir
     from ..provenance import write_run_record
+    from .lumped import check_nu
 
     out, cal, m, fe_freq = sweep_setup(args, SWEEP_FILES)
     geometry = c.geometry(args)
@@ -232,9 +234,11 @@ def sweep(args) -> int:
         from isj.lumped.artifact import calibration_for
 
         cal = calibration_for(None, args.joint)
+    check_nu(cal, args.nu)
     if fe_freq.size:  # the FE model of the spot checks, before any is built
         c.check_solver(args.solver)
         c.check_model_size(geometry, args.order, args.resolution)
+        c.check_caches(args, "mesh")
     warn_outside_domain(cal, c.moduli(m))
     damping = damping_from_args(args)
     sw = chain_sweep(

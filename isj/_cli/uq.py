@@ -140,7 +140,7 @@ def write_outputs(folder, args, result, summary: dict | None = None) -> None:
 def surrogate_evaluator(rom, pressure_pa: float):
     """The surrogate (:class:`isj.fem.rom.ReducedModel`) as an evaluator of
     :mod:`isj.studies.uq`: moduli (Pa) → (α, β) in rad; a design outside its domain is refused."""
-    from isj.fem.rom import RANGED
+    from isj.design_space import RANGED
 
     def evaluate(moduli):
         r = rom.evaluate({k: moduli[k] for k in (*RANGED, "incus_e_pa")}, pressure_pa)
@@ -157,14 +157,13 @@ def _support(space) -> dict[str, tuple[float, float]]:
 
 def inside_surrogate(space):
     """moduli → boolean mask of the draws inside the surrogate's domain (its edge slack included)."""
-    from isj.fem.rom.domain import EDGE_SLACK
+    from isj.design_space import inside
 
     def mask(moduli):
         ok = None
         for k, (lo, hi) in _support(space).items():
-            v = moduli[k]
-            inside = (v >= lo * (1 - EDGE_SLACK)) & (v <= hi * (1 + EDGE_SLACK))
-            ok = inside if ok is None else ok & inside
+            kept = inside(moduli[k], lo, hi)
+            ok = kept if ok is None else ok & kept
         return ok
 
     return mask
@@ -172,6 +171,8 @@ def inside_surrogate(space):
 
 def check_surrogate_support(config, space) -> None:
     """Refuse, before the surrogate is built, a distribution that reaches outside its domain."""
+    from isj.design_space import inside
+
     why = "--evaluator surrogate"
     for k, (lo, hi) in _support(space).items():
         d = config.distributions[k]
@@ -179,7 +180,7 @@ def check_surrogate_support(config, space) -> None:
         if d.kind == "lognormal":
             raise UsageError(f"{why}: uq.{k} is lognormal (unbounded); the surrogate holds on {rng} only")
         a, b = (d.low_pa, d.high_pa) if d.kind == "loguniform" else (d.value_pa, d.value_pa)
-        if a < lo * (1 - 1e-12) or b > hi * (1 + 1e-12):
+        if not (inside(a, lo, hi) and inside(b, lo, hi)):
             raise UsageError(f"{why}: uq.{k} spans {a:g}..{b:g} Pa, outside the surrogate's {rng}")
 
 
@@ -217,11 +218,12 @@ def uq(args) -> int:
     lumped = lumped_evaluator(LumpedModel(cal), args.pressure)
     rom = None
     if args.evaluator == "surrogate" or args.compare_surrogate:
-        from isj.fem.rom import DesignSpace
+        from isj.design_space import DesignSpace
 
         if args.evaluator == "surrogate":
             check_surrogate_support(config, DesignSpace())
         c.check_model_size(None, 2, 1.0)
+        c.check_caches(args, "mesh", "rom")
         rom = _surrogate(args)
     evaluator = surrogate_evaluator(rom, args.pressure) if args.evaluator == "surrogate" else lumped
     result = run_uq(config, evaluator, pressure_pa=args.pressure, domain=cal.domain)
