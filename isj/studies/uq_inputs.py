@@ -256,7 +256,11 @@ _CONFIG_KEYS = ("samples", "sobol_samples", "bootstrap", "seed")
 
 def uq_config_from_dict(section: Mapping, domain=None, **overrides) -> UQConfig:
     """A :class:`UQConfig` from a ``[uq]`` table: counts and ``[uq.<modulus>]`` tables; moduli it
-    does not name keep :func:`default_distributions`; ``overrides`` (not None) win over the table."""
+    does not name keep :func:`default_distributions`; ``overrides`` (not None) win over the table.
+
+    Every value of the table is checked, also one that an override then replaces: an invalid
+    file is refused whatever the command line says (:func:`check_count`).
+    """
     if not isinstance(section, Mapping):
         raise ConfigError(f"uq = {section!r}: must be a [uq] table")
     dists = default_distributions(domain)
@@ -265,11 +269,27 @@ def uq_config_from_dict(section: Mapping, domain=None, **overrides) -> UQConfig:
         if key in MODULI:
             dists[key] = Distribution.from_table(key, value)
         elif key in _CONFIG_KEYS:
-            counts[key] = value
+            counts[key] = check_count(key, value)
         else:
             raise ConfigError(f"uq.{key}: unknown key; valid: {', '.join((*_CONFIG_KEYS, *MODULI))}")
     counts.update({k: v for k, v in overrides.items() if v is not None})
     return UQConfig(dists, **counts)
+
+
+def check_count(key: str, value) -> int:
+    """One count of a ``[uq]`` table (``samples``, ``sobol_samples``, ``bootstrap``, ``seed``) on its
+    own: an integer (not a boolean) in its range, ``sobol_samples`` a power of 2; else a
+    ConfigError naming ``uq.<key>`` and the range."""
+    ranges = {
+        "samples": SAMPLES_RANGE,
+        "sobol_samples": SOBOL_SAMPLES_RANGE,
+        "bootstrap": BOOTSTRAP_RANGE,
+        "seed": SEED_RANGE,
+    }
+    v = _count(f"uq.{key}", value, *ranges[key])
+    if key == "sobol_samples" and v & (v - 1):
+        raise ConfigError(f"uq.sobol_samples = {v}: must be a power of 2 (Sobol' balance), e.g. {2**14}")
+    return v
 
 
 def load_uq_config(path: str | Path, domain=None, **overrides) -> UQConfig:
