@@ -30,7 +30,7 @@ TOP_OF_STACK = {"isj/cli.py", "isj/provenance.py", "isj/__main__.py", "isj/__ini
 
 
 def _is_top_of_stack(rel: str) -> bool:
-    return rel in TOP_OF_STACK or rel.startswith("isj/_cli/")
+    return rel in TOP_OF_STACK or rel.startswith(("isj/_cli/", "isj/app/"))  # the CLI and isj app
 
 
 SUBPACKAGES = ("fem", "lumped", "calibration", "studies", "reports")
@@ -175,3 +175,94 @@ def test_one_namespace_wheel(tmp_path):
     )
     assert r.returncode == 0, r.stderr
     assert Path(r.stdout.strip()).resolve() == (site / "isj" / "fem" / "__init__.py").resolve()
+
+
+def _module_of(path: Path) -> str:
+    rel = path.relative_to(ROOT).with_suffix("").as_posix()
+    return _module_name(rel).removesuffix(".__init__")
+
+
+def _type_checking_nodes(tree: ast.AST) -> set[int]:
+    """ids of import nodes under ``if TYPE_CHECKING:``: they never run."""
+    out = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test):
+            out |= {id(n) for b in node.body for n in ast.walk(b)}
+    return out
+
+
+def import_graph() -> dict[str, set[str]]:
+    """Project module -> project modules it imports, at module level or inside functions.
+
+    ``from P import name`` reaches the module ``P.name`` when that is a module, else ``P``.
+    """
+    files = {_module_of(f): f for f in source_files() if f.name != "__main__.py"}
+    graph: dict[str, set[str]] = {}
+    for mod, f in files.items():
+        tree = ast.parse(f.read_text())
+        skip = _type_checking_nodes(tree)
+        package = mod if f.name == "__init__.py" else mod.rpartition(".")[0]
+        targets = set()
+        for node in ast.walk(tree):
+            if id(node) in skip:
+                continue
+            if isinstance(node, ast.Import):
+                targets |= {a.name for a in node.names}
+            elif isinstance(node, ast.ImportFrom):
+                base = node.module or ""
+                if node.level:
+                    anchor = package.split(".")
+                    anchor = anchor[: len(anchor) - (node.level - 1)]
+                    base = ".".join(anchor + ([base] if base else []))
+                for a in node.names:
+                    sub = f"{base}.{a.name}"
+                    targets.add(sub if sub in files else base)
+        graph[mod] = {t for t in targets if t in files and t != mod}
+    return graph
+
+
+def import_cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """Strongly connected components of more than one module (Tarjan)."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    cycles = []
+
+    def visit(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on_stack.add(v)
+        for w in graph[v]:
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = []
+            while True:
+                w = stack.pop()
+                on_stack.discard(w)
+                component.append(w)
+                if w == v:
+                    break
+            if len(component) > 1:
+                cycles.append(sorted(component))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return cycles
+
+
+def test_cycle_finder_finds_a_cycle():
+    graph = {"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}
+    assert import_cycles(graph) == [["a", "b", "c"]]
+    assert import_cycles({"a": {"b"}, "b": set()}) == []
+
+
+def test_no_import_cycles():
+    """No two project modules import each other, directly or through others,
+    counting imports inside functions: a lazy import hides a cycle, it does not remove it."""
+    assert import_cycles(import_graph()) == []
