@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from .steps import STATIC_KEYS
+from .transmission_step import cavity_tables
 
 
 def _csv(header: str, columns: list[str], rows) -> str:
@@ -126,7 +127,7 @@ def _transmission(res: dict, arr: dict) -> dict[str, str]:
             cols,
             zip(*data, strict=True),
         )
-    }
+    } | cavity_tables(res, _csv)
 
 
 def tables(step: str, res: dict, arr: dict) -> dict[str, str]:

@@ -2,9 +2,8 @@
 
 The pages are drawn by :mod:`reports.pages_static` (title, model, cases,
 trends, energy) and :mod:`reports.pages_dynamic` (convergence, calibration,
-sweep, ear) on the layout of :mod:`reports.layout`, whose number formats
-(``urad``, ``ratio``, ``pct``) are re-exported here for the tests, which check
-the PDF's text against the JSON.
+sweep, ear) on the layout of :mod:`reports.layout` (page size, fonts and the number formats
+``urad``, ``ratio``, ``pct`` with which the tests check the PDF's text against the JSON).
 """
 
 from __future__ import annotations
@@ -12,7 +11,8 @@ from __future__ import annotations
 import dataclasses
 
 from .guard import guard_page
-from .layout import A4, MONO, new_page, pct, ratio, urad  # noqa: F401 - the tests use the formats
+from .layout import new_page
+from .pages_circuit import circuit_page
 from .pages_dynamic import calibration_page, convergence_page, ear_page, sweep_page
 from .pages_static import cases_page, energy_page, model_page, title_page, trends_page
 from .pages_transmission import delta_page, hv_page
@@ -35,6 +35,7 @@ PAGE_TITLES = (
     "11. A sliding joint",
     "12. Uncertainty of the moduli",
     "13. The lumped model's error over the domain",
+    "14. The ear beside the published cat circuit",
 )
 
 
@@ -65,6 +66,7 @@ def build_pages(config, results: dict, arrays: dict, provenance: dict):
         lambda f: sliding_page(f, results["sliding"]),
         lambda f: uq_page(f, results["uq"], results["uq"]["histograms"]),
         lambda f: guard_page(f, results["guard"], arrays["guard"]),
+        lambda f: circuit_page(f, results["transmission"]),
     )
     for i, (title, build) in enumerate(zip(PAGE_TITLES, builders, strict=True), 1):
         fig = new_page(title, i, total, footer)

@@ -7,6 +7,12 @@ solves; ΔH_V = H_V / H_V,rigid; the lumped ear's ΔH_V beside it; how the ear d
 joint (:func:`isj.lumped.transmission.load_path`) and how that changes when the cochlear
 load, the ligaments and the drum are scaled; the comparison with the cat data that exist
 (docs/measurements.md).
+
+With ``[transmission] cavities`` the same reduced ears give the middle-ear cavities' states
+(docs/circuit.md §13.3; no new reduction): H_V and ΔH_V per state, and the first case beside the
+published cat circuit of Bruce, Sachs & Young (2003) in the same state, per octave band
+(docs/circuit.md §13.4) — a published model fitted to cat measurements, not a measurement. These
+are new keys; every other number is the open ear's, as before.
 """
 
 from __future__ import annotations
@@ -24,6 +30,27 @@ SCALES = (0.1, 10.0)
 QUOTE_HZ = (1000.0, 5000.0, 10000.0)
 
 
+#: Where the default drum's H_V is converged: the default drum (``mesh_size_m``, about 1,600
+#: triangles) and a twice finer one agree within 1 dB up to ``within_1db_up_to_hz``
+#: (docs/ear.md §5.14, the measurement ``source`` names). It holds for that drum only: the step
+#: states it when the ear's drum has that mesh size, and says the band is unmeasured otherwise.
+DRUM_CONVERGENCE = {
+    "mesh_size_m": 0.25e-3,
+    "within_1db_up_to_hz": 2.6e3,
+    "source": "docs/ear.md 5.14: the default drum against a twice finer one, H_V within 1 dB",
+}
+
+#: The ``[transmission] cavities`` choices and the cavity states each computes beside the open ear.
+CAVITY_CHOICES = {"open": ("open",), "intact": ("intact",), "both": ("open", "intact")}
+
+
+def cavity_states(choice: str) -> tuple[str, ...]:
+    """The cavity states (:data:`isj.cavities.CAVITY_STATES`) the ``[transmission] cavities`` choice names."""
+    if choice not in CAVITY_CHOICES:
+        raise ValueError(f"transmission.cavities = {choice!r}: must be one of {', '.join(CAVITY_CHOICES)}")
+    return CAVITY_CHOICES[choice]
+
+
 def quote_indices(freq_hz: np.ndarray) -> list[int]:
     """Indices of the band's frequencies nearest :data:`QUOTE_HZ` (those inside the band)."""
     f = np.asarray(freq_hz)
@@ -35,25 +62,36 @@ def _ri(a) -> list:
     return np.stack([a.real, a.imag], axis=-1).tolist()
 
 
+def _db(x) -> np.ndarray:
+    return 20 * np.log10(np.abs(x))
+
+
+def _deg(x) -> np.ndarray:
+    return np.degrees(np.angle(x))
+
+
 def _columns(resp) -> dict:
     """The reduced ear's response as name → complex (n_freq,) array."""
     return {n: resp.response[:, i, 0] for i, n in enumerate(resp.output_names)}
 
 
-def fe_band(ctx, freq_hz: np.ndarray) -> tuple[dict, dict, dict]:
-    """FE H_V etc. per case and rigid over ``freq_hz``, and the reduction's direct checks."""
+def fe_band(ctx, freq_hz: np.ndarray) -> tuple[dict, dict, dict, dict]:
+    """FE H_V etc. per case and rigid over ``freq_hz``, the reduction's direct checks, and per ear
+    the cavity states' data (:func:`cavity_columns`; no new reduction)."""
     from isj.fem.batch import shared_model
     from isj.fem.ear import reduced_ear as es
     from isj.fem.ear.middle_ear import MiddleEarModel
 
     cfg, t = ctx.config, ctx.config.transmission
     damping = cfg.sweep.damping_model()
+    states = cavity_states(t.cavities)
     base = cfg.design.materials()
     joint, _ = shared_model(ctx.settings)
     ear = MiddleEarModel(joint=joint)
     rigid_model = MiddleEarModel(joint=None, geometry=ear.geometry)
     rigid = es.reduced_ear(rigid_model, base, cfg.ear, fmax_hz=t.fmax_hz)
-    out = {"rigid": _columns(rigid.response(freq_hz, damping))}
+    out = {"rigid": _columns(rigid.frequency_response(freq_hz, damping))}
+    cav = {"rigid": cavity_columns(rigid, freq_hz, damping, states)}
     info = {"rigid": {"n_dofs": rigid.n_dofs}}
     checks = {}
     from tqdm import tqdm
@@ -62,7 +100,8 @@ def fe_band(ctx, freq_hz: np.ndarray) -> tuple[dict, dict, dict]:
     for i, name in enumerate(bar):
         mats = case_by_name(name).materials(base)
         rom = es.reduced_ear(ear, mats, cfg.ear, fmax_hz=t.fmax_hz)
-        out[name] = _columns(rom.response(freq_hz, damping))
+        out[name] = _columns(rom.frequency_response(freq_hz, damping))
+        cav[name] = cavity_columns(rom, freq_hz, damping, states)
         info[name] = {"n_dofs": rom.n_dofs}  # no seconds: the same inputs give the same JSON
         if i == 0 and t.fe_checks:
             f_chk = es.check_frequencies_hz(t.fmin_hz, t.fmax_hz, t.fe_checks)
@@ -78,9 +117,189 @@ def fe_band(ctx, freq_hz: np.ndarray) -> tuple[dict, dict, dict]:
         sliding = MiddleEarModel(joint=jm)
         for name in t.sliding_cases:
             rom = es.reduced_ear(sliding, case_by_name(name).materials(base), cfg.ear, fmax_hz=t.fmax_hz)
-            out[f"{name}_sliding"] = _columns(rom.response(freq_hz, damping))
+            out[f"{name}_sliding"] = _columns(rom.frequency_response(freq_hz, damping))
+            cav[f"{name}_sliding"] = cavity_columns(rom, freq_hz, damping, states)
             info[f"{name}_sliding"] = {"n_dofs": rom.n_dofs}
-    return out, info, checks
+    return out, info, checks, cav
+
+
+def cavity_columns(rom, freq_hz, damping, states) -> dict:
+    """One reduced ear's cavity data (docs/circuit.md §13.3), no new reduction.
+
+    ``drum_volume_m3``: the open ear's drum volume displacement per Pa (m³/Pa, complex), from
+    which the cavity factor follows; ``intact``: H_V with the cavities intact (m/s per Pa), when
+    ``states`` holds "intact". The open ear's H_V is the step's own column.
+    """
+    out = {"drum_volume_m3": rom.with_cavities("open").drum_volume_m3(freq_hz, damping)}
+    if "intact" in states:
+        resp = rom.with_cavities("intact").frequency_response(freq_hz, damping)
+        out["intact"] = _columns(resp)["stapes_velocity_m_s"]
+    return out
+
+
+def _stapes(fe: dict, cav: dict, name: str, state: str) -> np.ndarray:
+    return fe[name]["stapes_velocity_m_s"] if state == "open" else cav[name][state]
+
+
+def cavity_section(cfg, freq_hz, fe: dict, cav: dict, cases: list[str]) -> tuple[dict, dict]:
+    """H_V and ΔH_V (against the rigid connection in the same state) per cavity state, JSON and arrays.
+
+    The open ear's numbers are those of the step's other keys; "intact" adds the cavity load of
+    :mod:`isj.cavities` (the ear's default state is :data:`isj.cavities.DEFAULT_CAVITIES`).
+    """
+    from isj.cavities import DEFAULT_CAVITIES
+
+    states = cavity_states(cfg.transmission.cavities)
+    iw = 2j * np.pi * np.asarray(freq_hz)
+    names = ["rigid", *cases]
+    per_state, arrays, quote = {}, {}, []
+    for state in states:
+        rigid = _stapes(fe, cav, "rigid", state)
+        rows = {}
+        for name in names:
+            v = _stapes(fe, cav, name, state)
+            row = {"stapes_velocity_db": _db(v).tolist(), "stapes_velocity_deg": _deg(v).tolist()}
+            if name != "rigid":
+                d = v / rigid
+                row |= {"delta_hv_db": _db(d).tolist(), "delta_hv_deg": _deg(d).tolist()}
+            rows[name] = row
+            arrays[f"{state}_{name}_stapes_velocity_m_s"] = v
+        per_state[state] = rows
+    for i in quote_indices(freq_hz):
+        q = {"freq_hz": float(freq_hz[i])}
+        for state in states:
+            q[state] = {
+                "delta_db": {c: per_state[state][c]["delta_hv_db"][i] for c in cases},
+                "delta_deg": {c: per_state[state][c]["delta_hv_deg"][i] for c in cases},
+            }
+        quote.append(q)
+    volume = {}
+    for name in names:
+        u = iw * cav[name]["drum_volume_m3"]
+        volume[name] = _ri(u)
+        arrays[f"{name}_drum_volume_velocity_m3_s"] = u
+    section = {
+        "what": (
+            "H_V per cavity state: open (no cavity load) and intact (the cavity network of the published "
+            "cat circuit behind the drum, docs/circuit.md 13.3); dH_V against the rigid connection in "
+            "the same state"
+        ),
+        "choice": cfg.transmission.cavities,
+        "states": list(states),
+        "default_cavities": DEFAULT_CAVITIES,
+        "ears": names,
+        "per_state": per_state,
+        "quote": quote,
+        "worst_delta_db": {
+            s: {c: float(np.max(np.abs(per_state[s][c]["delta_hv_db"]))) for c in cases} for s in states
+        },
+        "worst_delta_deg": {
+            s: {c: float(np.max(np.abs(per_state[s][c]["delta_hv_deg"]))) for c in cases} for s in states
+        },
+        "open_drum_volume_velocity_m3_s_per_pa_re_im": volume,
+    }
+    return section, arrays
+
+
+#: Octave bands of the circuit comparison, from 100 Hz, the last cut at 20 kHz (Hz); the same as
+#: :data:`isj.studies.circuit_comparison.OCTAVE_BANDS_HZ` (``tests/test_report.py`` checks the
+#: step's deviations against that study's on the stored H_V).
+OCTAVE_BANDS_HZ = tuple((100.0 * 2**k, min(100.0 * 2 ** (k + 1), 20e3)) for k in range(8))
+
+#: How the circuit is labelled wherever it appears.
+CIRCUIT_LABEL = "published model (Bruce et al. 2003), not a measurement"
+
+
+def band_deviation(freq_hz, ear, reference) -> list[dict]:
+    """Δ = ``ear`` / ``reference`` per octave band (:data:`OCTAVE_BANDS_HZ`; lo ≤ f < hi, the last
+    band including hi): ``band_hz``, ``n_freq`` and, for a band with frequencies, the mean and the
+    largest |Δ| in dB (and where), the signed mean in dB, the mean and the largest |Δ| in degrees
+    (wrapped to ±180°), as :func:`isj.studies.circuit_comparison.band_deviation` defines them."""
+    f = np.asarray(freq_hz, float)
+    ratio = np.asarray(ear, complex) / np.asarray(reference, complex)
+    d_db = 20 * np.log10(np.abs(ratio))
+    d_deg = (np.degrees(np.angle(ratio)) + 180.0) % 360.0 - 180.0
+    out = []
+    for k, (lo, hi) in enumerate(OCTAVE_BANDS_HZ):
+        m = (f >= lo) & ((f <= hi) if k == len(OCTAVE_BANDS_HZ) - 1 else (f < hi))
+        row = {"band_hz": [float(lo), float(hi)], "n_freq": int(m.sum())}
+        if m.any():
+            a, p = np.abs(d_db[m]), np.abs(d_deg[m])
+            row |= {
+                "mean_abs_db": float(a.mean()),
+                "max_abs_db": float(a.max()),
+                "max_abs_db_at_hz": float(f[m][np.argmax(a)]),
+                "mean_db": float(d_db[m].mean()),
+                "mean_abs_deg": float(p.mean()),
+                "max_abs_deg": float(p.max()),
+            }
+        out.append(row)
+    return out
+
+
+def _curves(u, p) -> dict:
+    return {
+        "stapes_volume_velocity": {"magnitude": np.abs(u).tolist(), "phase_deg": _deg(u).tolist()},
+        "vestibule_gain": {"db": _db(p).tolist(), "phase_deg": _deg(p).tolist()},
+    }
+
+
+def circuit_section(cfg, freq_hz, fe: dict, cav: dict, case: str) -> dict:
+    """The ear (``case``) beside the published cat circuit in each cavity state (docs/circuit.md §13.4).
+
+    U_S = A_fp H_V and P_V = Z_C A_fp H_V of the FE ear against the circuit's
+    (:class:`isj.lumped.circuit.CatCircuit`) in the same cavity state, per octave band
+    (:func:`band_deviation`). The circuit is a published model fitted to cat measurements, not a
+    measurement. (Not :mod:`isj.studies.circuit_comparison` itself: that module also holds the
+    lumped ear's comparison, and this step reads the FE ear only.)
+    """
+    from isj.lumped.circuit import CatCircuit
+
+    from isj.cavities import load_circuit_data
+    from isj.ear import EarGeometry
+
+    states = cavity_states(cfg.transmission.cavities)
+    area = EarGeometry().footplate_area_m2
+    z_c = cfg.sweep.damping_model().cochlear_impedance_pa_s_m3
+    circuit = CatCircuit.load()
+    out = {}
+    for s in states:
+        c = circuit.frequency_response(freq_hz, s)
+        u = area * _stapes(fe, cav, case, s)
+        p = z_c * u
+        out[s] = {
+            "circuit": _curves(c.stapes_volume_velocity_m3_s, c.vestibule_gain),
+            "ear": _curves(u, p),
+            "deviation_per_band": {
+                "stapes_volume_velocity": band_deviation(freq_hz, u, c.stapes_volume_velocity_m3_s),
+                "vestibule_gain": band_deviation(freq_hz, p, c.vestibule_gain),
+            },
+        }
+    return {
+        "label": CIRCUIT_LABEL,
+        "citations": load_circuit_data()["citations"],
+        "case": case,
+        "ear": f"fe (reduced ear), case {case}",
+        "quantities": {"stapes_volume_velocity": "m^3/s/Pa", "vestibule_gain": "Pa/Pa"},
+        "bands_hz": [list(b) for b in OCTAVE_BANDS_HZ],
+        "freq_hz": np.asarray(freq_hz, float).tolist(),
+        "footplate_area_m2": float(area),
+        "cochlear_impedance_pa_s_m3": float(z_c),
+        "states": out,
+    }
+
+
+def drum_convergence() -> dict:
+    """The band in which the ear's drum is converged (:data:`DRUM_CONVERGENCE`), for this drum."""
+    from isj.fem.ear.eardrum import EardrumGeometry
+
+    size = EardrumGeometry().mesh_size_m
+    measured = size == DRUM_CONVERGENCE["mesh_size_m"]
+    return {
+        "drum_mesh_size_m": size,
+        "within_1db_up_to_hz": DRUM_CONVERGENCE["within_1db_up_to_hz"] if measured else None,
+        "source": DRUM_CONVERGENCE["source"] if measured else "not measured for this drum",
+    }
 
 
 def scaled_ear_options(cfg, what: str, factor: float) -> dict:
@@ -194,7 +413,7 @@ def transmission_step(ctx) -> tuple[dict, dict]:
     """FE H_V per case and rigid over the band, ΔH_V, the direct checks, the cat data (FE only)."""
     cfg, t = ctx.config, ctx.config.transmission
     f = np.geomspace(t.fmin_hz, t.fmax_hz, t.n_freq)
-    fe, info, checks = fe_band(ctx, f)
+    fe, info, checks, cav = fe_band(ctx, f)
     cases = list(t.cases) + [f"{c}_sliding" for c in t.sliding_cases]
     rigid_v = fe["rigid"]["stapes_velocity_m_s"]
     delta = np.column_stack([fe[c]["stapes_velocity_m_s"] / rigid_v for c in cases])
@@ -223,10 +442,18 @@ def transmission_step(ctx) -> tuple[dict, dict]:
         "cat": cat_comparison(cfg, f, fe, cases[0]),
         "damping": cfg.sweep.damping_model().to_dict(),
     }
+    # the cavity states and the published cat circuit: new keys, the ones above unchanged
+    cavities, cav_arrays = cavity_section(cfg, f, fe, cav, cases)
+    result |= {
+        "cavities": cavities,
+        "circuit": circuit_section(cfg, f, fe, cav, cases[0]),
+        "drum_convergence": drum_convergence(),
+    }
     arrays = {"freq_hz": f, "delta": delta, "pedicle_share": share}
     for name, cols in fe.items():
         for k in ("stapes_velocity_m_s", "umbo_velocity_m_s", "alpha_rad", "beta_rad"):
             arrays[f"{name}_{k}"] = cols[k]
+    arrays |= {f"cavities_{k}": v for k, v in cav_arrays.items()}
     return result, arrays
 
 
@@ -261,3 +488,74 @@ def load_path_step(ctx) -> tuple[dict, dict]:
         )
     result = {"cases": cases, "quote": quote, "load_path": load_path_study(ctx)}
     return result, {"freq_hz": f, "lumped_delta": lumped.delta}
+
+
+def cavity_tables(res: dict, csv) -> dict[str, str]:
+    """The cavity states' and the circuit's CSV files from the step's JSON (``csv``: the writer
+    ``(header, columns, rows) → text`` of :mod:`reports.csvdata`); none when the result has no cavities."""
+    cav, circ = res.get("cavities"), res.get("circuit")
+    if not cav or not circ:
+        return {}
+    f = res["freq_hz"]
+    cols, data = ["freq_hz"], [f]
+    for state in cav["states"]:
+        for name in cav["ears"]:
+            row = cav["per_state"][state][name]
+            for k in ("stapes_velocity_db", "stapes_velocity_deg", "delta_hv_db", "delta_hv_deg"):
+                if k in row:
+                    cols.append(f"{state}_{name}_{k}")
+                    data.append(row[k])
+    for name in cav["ears"]:
+        u = np.asarray(cav["open_drum_volume_velocity_m3_s_per_pa_re_im"][name])
+        cols += [
+            f"open_{name}_drum_volume_velocity_re_m3_s_per_pa",
+            f"open_{name}_drum_volume_velocity_im_m3_s_per_pa",
+        ]
+        data += [u[:, 0], u[:, 1]]
+    ccols, cdata = ["freq_hz"], [f]
+    order = [s for s in cav["states"] if s in circ["states"]]  # the configured order, not the JSON's
+    for state in order:
+        st = circ["states"][state]
+        for who in ("circuit", "ear"):
+            us, pv = st[who]["stapes_volume_velocity"], st[who]["vestibule_gain"]
+            ccols += [
+                f"{state}_{who}_stapes_volume_velocity_m3_s_per_pa",
+                f"{state}_{who}_stapes_volume_velocity_deg",
+                f"{state}_{who}_vestibule_gain_db",
+                f"{state}_{who}_vestibule_gain_deg",
+            ]
+            cdata += [us["magnitude"], us["phase_deg"], pv["db"], pv["phase_deg"]]
+    keys = [
+        "n_freq",
+        "mean_abs_db",
+        "max_abs_db",
+        "max_abs_db_at_hz",
+        "mean_db",
+        "mean_abs_deg",
+        "max_abs_deg",
+    ]
+    bands = [
+        [state, q, *b["band_hz"]] + [b.get(k, "") for k in keys]
+        for state in order
+        for q, rows in circ["states"][state]["deviation_per_band"].items()
+        for b in rows
+    ]
+    what = "published model (Bruce et al. 2003), not a measurement"
+    return {
+        "transmission_cavities.csv": csv(
+            "FE whole ear per cavity state: H_V (dB re 1 m/s/Pa, deg) and dH_V against the rigid "
+            "connection in the same state; the open ear's drum volume velocity (m^3/s/Pa)",
+            cols,
+            zip(*data, strict=True),
+        ),
+        "circuit.csv": csv(
+            f"the ear (case {circ['case']}) and the cat circuit ({what}): U_S = A_fp H_V, P_V / P_EC",
+            ccols,
+            zip(*cdata, strict=True),
+        ),
+        "circuit_bands.csv": csv(
+            f"deviation ear / cat circuit ({what}) per octave band, same cavity state",
+            ["cavities", "quantity", "band_lo_hz", "band_hi_hz", *keys],
+            bands,
+        ),
+    }

@@ -11,10 +11,11 @@ import math
 import numpy as np
 import pypdf
 import pytest
-from isj.reports import pdf
-from isj.reports.config import ConfigError, ReportConfig, load_config
+from isj.reports import layout, pdf
+from isj.reports.config import ReportConfig, load_config
 
 from isj.cli import main
+from isj.errors import ConfigError
 
 # the coarse report itself is the `report` fixture of tests/conftest.py (shared with the cache tests)
 
@@ -34,7 +35,7 @@ def test_interrupted_run_writes_no_pdf_and_resumes_from_the_finished_steps(repor
 
 def test_pdf_has_the_pages_in_order(report):
     texts = _pages_text(report["dir"] / "report.pdf")
-    assert len(texts) == len(pdf.PAGE_TITLES) == 14
+    assert len(texts) == len(pdf.PAGE_TITLES) == 15
     for text, title in zip(texts, pdf.PAGE_TITLES, strict=True):
         assert title in text
 
@@ -52,28 +53,30 @@ def test_pdf_text_carries_the_numbers_of_the_json(report):
     data = report["dir"] / "data"
     texts = _pages_text(report["dir"] / "report.pdf")
     model = json.loads((data / "model.json").read_text())
-    assert pdf.urad(model["base"]["alpha_rad"]) in texts[1]
-    assert pdf.urad(model["base"]["beta_rad"]) in texts[1]
+    assert layout.urad(model["base"]["alpha_rad"]) in texts[1]
+    assert layout.urad(model["base"]["beta_rad"]) in texts[1]
     assert str(model["n_tets"]) in texts[1]
     cases = json.loads((data / "cases.json").read_text())
     assert len(cases["rows"]) == 7
     for row in cases["rows"]:
         for side in ("fe", "lumped"):
             for k in ("alpha_rad", "beta_rad", "alpha_plus_beta_rad"):
-                assert pdf.urad(row[side][k]) in texts[2], (row["case"], side, k)
-            assert pdf.ratio(row[side]["beta_over_alpha"]) in texts[2]
-        assert pdf.pct(row["rel_diff"]["alpha_rad"]) in texts[2]
-    assert pdf.urad(cases["thesis_base"]["alpha_plus_beta_rad"]) in texts[2]
+                assert layout.urad(row[side][k]) in texts[2], (row["case"], side, k)
+            assert layout.ratio(row[side]["beta_over_alpha"]) in texts[2]
+        assert layout.pct(row["rel_diff"]["alpha_rad"]) in texts[2]
+    assert layout.urad(cases["thesis_base"]["alpha_plus_beta_rad"]) in texts[2]
     cal = json.loads((data / "calibration.json").read_text())
-    assert pdf.pct(cal["check"]["max_abs_alpha_rad"]) in texts[6]
+    assert layout.pct(cal["check"]["max_abs_alpha_rad"]) in texts[6]
     assert "NOTE: this report's FE mesh (P2, resolution 0.35)" in texts[6]  # coarse, not the calibration's
     sweep = json.loads((data / "sweep.json").read_text())
     assert len(sweep["fe_checks"]) == 1
-    assert pdf.urad(sweep["fe_checks"][0]["beta_rad"]["fe_abs"]) in texts[7]
+    assert layout.urad(sweep["fe_checks"][0]["beta_rad"]["fe_abs"]) in texts[7]
     assert f"{sweep['fe_modes_hz'][0]:10.0f}".strip() in texts[7]
     ear = json.loads((data / "ear.json").read_text())
     for c in ear["cases"]:
-        assert pdf.urad(c["alpha_rad_per_pa"]) in texts[8] and pdf.urad(c["beta_rad_per_pa"]) in texts[8]
+        assert (
+            layout.urad(c["alpha_rad_per_pa"]) in texts[8] and layout.urad(c["beta_rad_per_pa"]) in texts[8]
+        )
     assert f"{ear['cases'][0]['umbo_m_per_pa'] * 1e9:.2f}" in texts[8]
 
 
@@ -128,8 +131,8 @@ def test_every_figure_has_data(report):
         plt.close(fig)
     # model (2), cases (2), trends (2 x 3 + 2 geometry), energy (1), convergence (1), calibration (6),
     # sweep (2), ear (1), H_V (3), dH_V (3: one case, so no pedicle-or-joint ratio panel), sliding (1),
-    # uncertainty (3 + 3), guard (one map per pair of the five moduli: 10)
-    assert n_axes == 2 + 2 + 6 + 2 + 1 + 1 + 6 + 2 + 1 + 3 + 3 + 1 + 6 + 10
+    # uncertainty (3 + 3), guard (one map per pair of the five moduli: 10), the cat circuit (4)
+    assert n_axes == 2 + 2 + 6 + 2 + 1 + 1 + 6 + 2 + 1 + 3 + 3 + 1 + 6 + 10 + 4
 
 
 def test_data_files_and_resolved_config(report):
@@ -179,6 +182,8 @@ def test_defaults_file_and_overrides_in_that_order(tmp_path):
         ("[design\n", [], "TOML"),
         ("", ["design.pedicle_e_pa"], "SECTION.KEY=VALUE"),
         ("", ["sweep.fmin_hz=abc"], "sweep.fmin_hz"),
+        ("[transmission]\ncavities = 'closed'\n", [], "transmission.cavities"),
+        ("", ["transmission.cavities=3"], "transmission.cavities"),
     ],
 )
 def test_bad_config_is_one_line_naming_it(tmp_path, text, overrides, word):
@@ -267,6 +272,96 @@ def test_transmission_pages_carry_the_fe_ear_over_the_band(report):
     assert f"{tr['quote'][0]['delta_db']['p12']:+7.2f}dB" in texts[10]
 
 
+def test_transmission_holds_both_cavity_states_and_the_intact_ear_is_the_cavity_factor(report):
+    """Both cavity states in transmission.json; intact / open H_V is 1 / (1 + K_cav X_U), X_U the
+    stored open drum volume velocity over iω (docs/circuit.md §13.3), for every ear of the step."""
+    from isj.cavities import DEFAULT_CAVITIES, cavity_factor
+
+    data = report["dir"] / "data"
+    tr = json.loads((data / "transmission.json").read_text())
+    cav = tr["cavities"]
+    assert ReportConfig().transmission.cavities == "both" and DEFAULT_CAVITIES == "open"
+    assert cav["states"] == ["open", "intact"] and cav["ears"] == ["rigid", "p12", "p12_sliding"]
+    f = np.asarray(tr["freq_hz"])
+    lines = (data / "transmission.csv").read_text().splitlines()
+    cols = lines[1].split(",")
+    table = np.array([[float(x) for x in row.split(",")] for row in lines[2:]])
+    for name in cav["ears"]:
+        open_, intact = cav["per_state"]["open"][name], cav["per_state"]["intact"][name]
+        # the open state is the step's own H_V, as its CSV has it
+        re, im = (table[:, cols.index(f"{name}_stapes_velocity_{p}_m_s_per_pa")] for p in ("re", "im"))
+        np.testing.assert_allclose(open_["stapes_velocity_db"], 20 * np.log10(np.hypot(re, im)), atol=1e-6)
+        u = np.asarray(cav["open_drum_volume_velocity_m3_s_per_pa_re_im"][name]) @ [1, 1j]
+        factor = cavity_factor(f, u / (2j * np.pi * f), "intact")
+        got_db = np.subtract(intact["stapes_velocity_db"], open_["stapes_velocity_db"])
+        got_deg = np.subtract(intact["stapes_velocity_deg"], open_["stapes_velocity_deg"])
+        np.testing.assert_allclose(got_db, 20 * np.log10(np.abs(factor)), atol=1e-6)
+        wrap = (got_deg - np.degrees(np.angle(factor)) + 180) % 360 - 180
+        np.testing.assert_allclose(wrap, 0, atol=1e-5)
+        # the cavities' air springs load the drum: below 1 kHz the intact ear moves about 2.9 dB less
+        # (docs/circuit.md 13.3: lumped ear 2.9 dB, FE rigid-joint ear 2.86 dB at 200 Hz)
+        assert np.all((-3.5 < np.asarray(got_db)[f < 1000]) & (np.asarray(got_db)[f < 1000] < -2.0))
+    # ΔH_V in each state is against the rigid connection of the same state
+    for s in cav["states"]:
+        rows = cav["per_state"][s]
+        d = np.subtract(rows["p12"]["stapes_velocity_db"], rows["rigid"]["stapes_velocity_db"])
+        np.testing.assert_allclose(rows["p12"]["delta_hv_db"], d, atol=1e-9)
+    # the open state's ΔH_V is the step's existing one
+    q = tr["quote"][0]
+    assert cav["quote"][0]["open"]["delta_db"]["p12"] == pytest.approx(q["delta_db"]["p12"], abs=1e-12)
+    assert len((data / "transmission_cavities.csv").read_text().splitlines()) == 2 + f.size
+
+
+def test_circuit_page_shows_the_published_cat_circuit_in_both_cavity_states(report):
+    """The circuit's curves in the JSON are isj.lumped.circuit's at the stored frequencies; the
+    deviations per band are the circuit study's on the stored H_V; the page names the circuit as
+    a published model and states the drum's converged band from its one constant."""
+    from isj.lumped.circuit import CatCircuit
+    from isj.reports.transmission_step import DRUM_CONVERGENCE
+
+    from isj.studies.circuit_comparison import compare_with_circuit
+
+    data = report["dir"] / "data"
+    tr = json.loads((data / "transmission.json").read_text())
+    circ = tr["circuit"]
+    f = np.asarray(circ["freq_hz"])
+    assert circ["case"] == "p12" and set(circ["states"]) == {"open", "intact"}
+    assert "not a measurement" in circ["label"]
+    hv = {}
+    for s, st in circ["states"].items():
+        c = CatCircuit.load().frequency_response(f, s)
+        us = st["circuit"]["stapes_volume_velocity"]
+        np.testing.assert_allclose(us["magnitude"], np.abs(c.stapes_volume_velocity_m3_s), rtol=1e-12)
+        np.testing.assert_allclose(
+            us["phase_deg"], np.degrees(np.angle(c.stapes_volume_velocity_m3_s)), atol=1e-9
+        )
+        np.testing.assert_allclose(st["circuit"]["vestibule_gain"]["db"], c.vestibule_gain_db(), atol=1e-9)
+        ear = st["ear"]["stapes_volume_velocity"]
+        hv[s] = (
+            np.asarray(ear["magnitude"])
+            * np.exp(1j * np.radians(ear["phase_deg"]))
+            / circ["footplate_area_m2"]
+        )
+        # the ear's U_S is A_fp times the step's H_V in that state
+        db = 20 * np.log10(np.asarray(ear["magnitude"]) / circ["footplate_area_m2"])
+        np.testing.assert_allclose(db, tr["cavities"]["per_state"][s]["p12"]["stapes_velocity_db"], atol=1e-9)
+    study = compare_with_circuit(f, hv, circ["footplate_area_m2"], circ["cochlear_impedance_pa_s_m3"])
+    for s in circ["states"]:
+        for q, rows in circ["states"][s]["deviation_per_band"].items():
+            for a, b in zip(rows, study["states"][s]["deviation_per_band"][q], strict=True):
+                assert a["band_hz"] == b["band_hz"] and a["n_freq"] == b["n_freq"]
+                for k in ("mean_abs_db", "max_abs_db", "mean_db", "mean_abs_deg", "max_abs_deg"):
+                    assert a.get(k) == pytest.approx(b.get(k), abs=1e-6), (s, q, a["band_hz"], k)
+    conv = tr["drum_convergence"]
+    assert conv["within_1db_up_to_hz"] == DRUM_CONVERGENCE["within_1db_up_to_hz"]
+    texts = _pages_text(report["dir"] / "report.pdf")
+    page = texts[pdf.PAGE_TITLES.index("14. The ear beside the published cat circuit")]
+    assert "published model (Bruce et al. 2003), not a measurement" in page
+    assert f"converged only up to {conv['within_1db_up_to_hz'] / 1e3:.1f} kHz" in " ".join(page.split())
+    band = circ["states"]["intact"]["deviation_per_band"]["stapes_volume_velocity"][3]
+    assert f"{band['mean_abs_db']:8.2f}{band['max_abs_db']:8.2f}".strip() in page
+
+
 def test_uq_page_carries_the_probability_and_the_indices(report):
     """The report's uncertainty step is isj uq's computation on the report's lumped model."""
     from isj.studies.uq import run_uq
@@ -316,7 +411,7 @@ def test_sliding_page_carries_bonded_and_sliding_cases(report):
         # with the gap's face free to slide, the capsule carries all of the shear
         assert sliding["capsule_shear_share"] == pytest.approx(1.0, abs=1e-6)
     texts = _pages_text(report["dir"] / "report.pdf")
-    assert "A sliding joint" in texts[11] and pdf.urad(rows["base", "sliding"]["alpha_rad"]) in texts[11]
+    assert "A sliding joint" in texts[11] and layout.urad(rows["base", "sliding"]["alpha_rad"]) in texts[11]
 
 
 def test_guard_page_checks_the_lumped_model_over_the_domain(report):
