@@ -69,19 +69,12 @@ def main(argv=None) -> int:
     ap.add_argument("--workers", type=int, default=1)
     ap.add_argument("--calibration", help="calibration file (default: the shipped one)")
     ap.add_argument("--no-write", action="store_true", help="do not write the JSON result")
-    ap.add_argument(
-        "--fem-code",
-        metavar="DIGEST",
-        help="read the cached FE results of this FE code digest (the FE refuses to compute for another)",
-    )
     args = ap.parse_args(argv)
     cal = Calibration.load(args.calibration) if args.calibration else default_calibration()
     factors = cal.factor_array()
     items = slice_items()
     base_items = [(label, m) for label, m in MODULI_SETS.items()]
-    settings = fe_settings()
-    if args.fem_code:
-        settings["fem_code"] = args.fem_code
+    settings = fe_settings()  # cached results of earlier code stay valid while its results versions hold
     recs = run_geometry_designs(
         [(m, d) for *_, m, d in items] + [(m, {}) for _, m in base_items],
         evaluate_design,

@@ -9,7 +9,12 @@ stopped. Records have the form::
     {"key": sha256 hex, "design": {...}, "settings": {...}, "result": {...}, "sha256": hex}
 
 where ``sha256`` is the checksum of the rest (:mod:`isj.cachefile`), verified on
-every read.
+every read. An evaluator that names the result families it computes (a
+``result_families`` attribute, as :func:`isj.fem.batch.evaluate_design` does) has
+their versions (:func:`isj.results_version.versions`) put into the settings, hence
+into every key: a cached FE result is found again after any change of the code that
+leaves its family's version, and never after one that bumps it
+(docs/developer/cache-keys.md).
 
 Workers are started with the ``spawn`` method: a forked child of a process
 that has already run MKL/OpenMP code (PARDISO) or holds threads (Dask, tqdm)
@@ -31,7 +36,8 @@ from pathlib import Path
 from tqdm.auto import tqdm
 
 from isj.cachefile import DamagedEntry, discard, read_json_entry, write_json_entry
-from isj.errors import CorruptCacheEntry, EvaluationError  # noqa: F401 - re-exported, their old home
+from isj.errors import EvaluationError
+from isj.results_version import versions
 
 RECORD_FIELDS = ("key", "design", "settings", "result")
 
@@ -83,6 +89,20 @@ def design_key(design: Mapping, settings: Mapping) -> str:
     """
     payload = {"design": _canonical_design(design), "settings": _canonical(settings, "settings")}
     return hashlib.sha256(_dumps(payload).encode()).hexdigest()
+
+
+def keyed_settings(evaluate: Callable, settings: Mapping) -> dict:
+    """Canonical ``settings`` with the results versions of what ``evaluate`` computes.
+
+    ``evaluate.result_families`` (a tuple of family names of :mod:`isj.results_version`)
+    gives ``settings["versions"] = versions(*families)``, replacing any there; an evaluator
+    without it gets ``settings`` unchanged.
+    """
+    out = _canonical(settings, "settings")
+    families = getattr(evaluate, "result_families", None)
+    if families:
+        out["versions"] = versions(*families)
+    return out
 
 
 class ResultCache:
@@ -169,7 +189,8 @@ def run_designs(
         Picklable top-level ``evaluate(design, settings) -> dict`` returning
         JSON-able finite numbers (SI units).
     settings : dict
-        Evaluation settings shared by all designs (JSON-able); part of each key.
+        Evaluation settings shared by all designs (JSON-able); part of each key, with the
+        results versions of ``evaluate``'s families (:func:`keyed_settings`).
     cache_dir : path
         Directory of the :class:`ResultCache`.
     scheduler : None, str or distributed.Client
@@ -195,7 +216,7 @@ def run_designs(
         If any evaluation raised or returned something that cannot be stored.
         It names the designs; every other result has been cached first.
     """
-    settings = _canonical(settings, "settings")
+    settings = keyed_settings(evaluate, settings)
     designs = [_canonical_design(d) for d in designs]
     keys = [design_key(d, settings) for d in designs]
     cache = ResultCache(cache_dir)
@@ -328,7 +349,7 @@ def run_geometry_designs(
     by another worker from its first uncached design when the directory is shared (one machine, or
     a network file system). This process also caches every record it receives.
     """
-    settings = _canonical(settings, "settings")
+    settings = keyed_settings(evaluate, settings)
     groups: dict[str, tuple[dict, list[int]]] = {}
     for i, (_, dims) in enumerate(items):
         s = dict(settings, geometry={**settings.get("geometry", {}), **_canonical(dims, "geometry")})

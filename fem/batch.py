@@ -14,13 +14,13 @@ import threading
 from collections.abc import Mapping
 
 from isj.design import DEFAULT_PRESSURE_PA, REGIONS, Geometry, Materials, check_pressure
-from isj.digest import code_digest
 from isj.errors import InvalidParameter
+from isj.results_version import versions
 
 from .model import PedicleJointModel
 
 #: Keys a settings dict may hold (see :func:`fe_settings`).
-SETTINGS_KEYS = frozenset({"order", "resolution", "geometry", "pressure_pa", "fem_code", "joint"})
+SETTINGS_KEYS = frozenset({"order", "resolution", "geometry", "pressure_pa", "versions", "joint"})
 
 #: Keys a design may hold: the Young's moduli (Pa) and Poisson's ratio.
 DESIGN_KEYS = frozenset({f"{r}_e_pa" for r in REGIONS} | {"nu"})
@@ -34,21 +34,37 @@ _MAX_MODELS = 4
 _LOCK = threading.RLock()
 
 
-# read once, at import: the digest must describe the code this process runs, not
-# files edited on disk since
-_FEM_CODE = code_digest(__name__)
+def results_versions(kind: str = "static") -> dict:
+    """The results versions (:func:`isj.results_version.versions`) of one kind of FE result.
 
-
-def fem_code_digest() -> str:
-    """sha256 (hex) of the sources of this module and of every isj module it imports, transitively.
-
-    The modules are found through the import system (:func:`isj.digest.code_digest`),
-    lazy imports inside functions included: the model, assembly, solvers, dynamics,
-    mesh and the :mod:`isj.design` vocabulary. Part of :func:`fe_settings`, hence of
-    every cached result's key: editing the FE code makes old results unreachable
-    instead of silently stale.
+    ``kind``: "static" (:func:`evaluate_design`: the ``fe_static`` family and the meshes),
+    "modes" or "harmonic" (:func:`evaluate_modes`, :func:`evaluate_harmonic`: ``fe_dynamic``
+    too). Part of every cached result's key in place of the FE code's text: a change to
+    ``fem/`` that changes results bumps a version, one that does not keeps every entry.
     """
-    return _FEM_CODE
+    if kind not in _FAMILY:
+        raise InvalidParameter(f"kind = {kind!r}: must be one of {sorted(_FAMILY)}")
+    return versions(_FAMILY[kind])
+
+
+#: The result family of each kind of evaluation.
+_FAMILY = {"static": "fe_static", "modes": "fe_dynamic", "harmonic": "fe_dynamic"}
+
+
+def _check_versions(settings: Mapping, kind: str) -> None:
+    """InvalidParameter when ``settings`` carry the results versions of other FE code.
+
+    ``settings["versions"]`` must hold only versions that this code's results of ``kind``
+    depend on, each at its present value: those of :func:`fe_settings` (static) or of ``kind``.
+    A result computed now would be cached under a key that claims other results (a Dask
+    worker with another isj refuses the designs).
+    """
+    have, mine = settings.get("versions"), results_versions(kind)
+    if have is not None and not (isinstance(have, Mapping) and have.items() <= mine.items()):
+        raise InvalidParameter(
+            f"settings['versions'] = {settings['versions']!r}: this FE code's {kind} results are "
+            f"version {results_versions(kind)!r}; rebuild the settings with fe_settings()"
+        )
 
 
 def fe_settings(
@@ -72,10 +88,11 @@ def fe_settings(
     Returns
     -------
     dict
-        ``{"order", "resolution", "geometry" (all fields, m), "pressure_pa",
-        "fem_code"}``, and ``"joint"`` for a joint other than bonded (so bonded settings and
-        their cache keys are those of before the joint existed): JSON-able, so it can key a
-        result cache.
+        ``{"order", "resolution", "geometry" (all fields, m), "pressure_pa", "versions"}``
+        (``versions``: :func:`results_versions` of the static results; the result runner
+        puts those of the evaluator's kind there, :data:`evaluate_modes.result_families`), and
+        ``"joint"`` for a joint other than bonded (so bonded settings and their cache keys are
+        those of before the joint existed): JSON-able, so it can key a result cache.
     """
     geom = _geometry(geometry)
     _check_mesh(order, resolution)
@@ -85,7 +102,7 @@ def fe_settings(
         "resolution": float(resolution),
         "geometry": dataclasses.asdict(geom),
         "pressure_pa": check_pressure(pressure_pa),
-        "fem_code": fem_code_digest(),
+        "versions": results_versions("static"),
     } | ({"joint": joint} if joint != "bonded" else {})
 
 
@@ -161,7 +178,8 @@ def evaluate_design(design: Mapping, settings: Mapping) -> dict:
     Raises
     ------
     InvalidParameter
-        Unknown keys or invalid values; settings made for other FE code.
+        Unknown keys or invalid values; settings whose ``versions`` are those of other FE
+        results (:func:`results_versions`).
     """
     unknown = set(settings) - SETTINGS_KEYS
     if unknown:
@@ -169,11 +187,7 @@ def evaluate_design(design: Mapping, settings: Mapping) -> dict:
     unknown = set(design) - DESIGN_KEYS
     if unknown:
         raise InvalidParameter(f"unknown design keys {sorted(unknown)}; valid: {sorted(DESIGN_KEYS)}")
-    if "fem_code" in settings and settings["fem_code"] != fem_code_digest():
-        # a result computed now would be cached under a key that claims older code
-        raise InvalidParameter(
-            "settings['fem_code'] is for other FE code; rebuild the settings with fe_settings()"
-        )
+    _check_versions(settings, "static")
     order = settings.get("order", 2)
     resolution = settings.get("resolution", 1.0)
     _check_mesh(order, resolution)
@@ -183,7 +197,7 @@ def evaluate_design(design: Mapping, settings: Mapping) -> dict:
     materials = Materials(**{k: float(v) for k, v in design.items()})
     with _LOCK:
         model, mesh_hash = _model(geometry, int(order), float(resolution), joint)
-        res = model.solve(materials, pressure)
+        res = model.static(materials, pressure)
         n_dofs = int(model.n_dofs)
     return {
         "alpha_rad": float(res.alpha_rad),
@@ -218,6 +232,7 @@ def evaluate_modes(design: Mapping, settings: Mapping) -> dict:
     unknown = set(s) - SETTINGS_KEYS
     if unknown:
         raise InvalidParameter(f"unknown settings {sorted(unknown)}; valid: {sorted(SETTINGS_KEYS)}")
+    _check_versions(s, "modes")
     geometry = _geometry(s.get("geometry"))
     order, resolution = s.get("order", 2), s.get("resolution", 1.0)
     _check_mesh(order, resolution)
@@ -277,6 +292,7 @@ def evaluate_harmonic(design: Mapping, settings: Mapping) -> dict:
         raise InvalidParameter(
             f"unknown settings {sorted(unknown)}; valid: {sorted(SETTINGS_KEYS | HARMONIC_KEYS)}"
         )
+    _check_versions(s, "harmonic")
     freq = [float(f) for f in extra.get("freq_hz", ())]
     if not freq:
         raise InvalidParameter("settings['freq_hz']: must list at least one frequency (Hz)")
@@ -299,3 +315,10 @@ def evaluate_harmonic(design: Mapping, settings: Mapping) -> dict:
         result[f"{k}_re"] = [float(x) for x in v.real]
         result[f"{k}_im"] = [float(x) for x in v.imag]
     return result
+
+
+# The result families of each evaluator: calibration.runner keys its results with their
+# versions (calibration may not import fem, so it reads them off the function it is given).
+evaluate_design.result_families = ("fe_static",)
+evaluate_modes.result_families = ("fe_dynamic",)
+evaluate_harmonic.result_families = ("fe_dynamic",)

@@ -1,9 +1,11 @@
-"""Disk cache of meshes, keyed by a hash of everything the mesh depends on, and of solver orderings.
+"""Disk cache of meshes, keyed by what the mesh depends on, and of solver orderings.
 
-Key: sha256 of the canonical JSON of (kind, geometry fields, mesh sizes,
-resolution, gmsh version, :data:`MESH_FORMAT_VERSION`, and the digest of the
-meshing code: :mod:`isj.fem.geometry`, :mod:`isj.fem.mesh` and every isj module
-they import, read through the import system by :func:`isj.digest.code_digest`).
+Key: sha256 of the canonical JSON of (kind, geometry fields, mesh sizes, resolution,
+:data:`MESH_FORMAT_VERSION`, and :func:`isj.results_version.versions` of the ``mesh``
+family: the meshing results version and gmsh's version). The meshing code's text is
+not part of it: a refactor of :mod:`isj.fem.mesh` or :mod:`isj.fem.geometry` keeps every
+entry, a change of the meshes they make bumps the ``mesh`` version
+(docs/developer/cache-keys.md).
 Entries are ``.npz`` files (no pickles) with a checksum of their arrays
 (:mod:`isj.cachefile`), written atomically. An entry that cannot be read, fails
 its checksum or whose mesh content hash does not match is reported with one
@@ -30,16 +32,18 @@ import numpy as np
 
 from isj.cachefile import DamagedEntry, discard, read_npz_entry, write_npz_entry
 from isj.caches import MESH_CACHE_ENV, mesh_cache_dir
-from isj.digest import code_digest
-from isj.errors import CacheWarning  # noqa: F401 - re-exported, its old home
+from isj.errors import CacheWarning
+from isj.results_version import versions
+
+from .tetmesh import TetMesh
 
 if TYPE_CHECKING:
     from isj.design import Geometry
 
     from .geometry import MeshSizes
-    from .mesh import TetMesh
 
-#: Bump whenever meshing or the stored layout changes in a way that changes meshes.
+#: Bump whenever the stored layout of an entry changes (a change of the meshes themselves bumps
+#: the ``mesh`` family of :mod:`isj.results_version`).
 MESH_FORMAT_VERSION = 1
 
 #: Environment variable overriding the default cache directory.
@@ -58,27 +62,15 @@ def resolve_cache_dir(cache_dir: str | os.PathLike | bool | None) -> Path | None
     return Path(cache_dir)
 
 
-def _gmsh_version() -> str:
-    import gmsh
-
-    return str(gmsh.__version__)
-
-
-def _builder_digest() -> str:
-    """sha256 of the meshing code and what it imports: editing the builder invalidates old entries."""
-    return code_digest("isj.fem.geometry", "isj.fem.mesh")
-
-
 def cache_key(kind: str, geometry: Geometry, sizes: MeshSizes) -> str:
-    """sha256 (hex) of the canonical JSON of everything the mesh depends on."""
+    """sha256 (hex) of the canonical JSON of everything the mesh depends on (module docstring)."""
     payload = {
-        "builder": _builder_digest(),
         "kind": kind,
         "geometry": dataclasses.asdict(geometry),
         "sizes": dataclasses.asdict(sizes),
         "resolution": sizes.resolution,
-        "gmsh": _gmsh_version(),
         "format": MESH_FORMAT_VERSION,
+        "versions": versions("mesh"),
     }
     text = json.dumps(payload, sort_keys=True, separators=(",", ":"), allow_nan=False)
     return hashlib.sha256(text.encode()).hexdigest()
@@ -109,8 +101,6 @@ def load_mesh(path: Path) -> TetMesh:
     DamagedEntry
         Unreadable, failed checksum, other format, or a mesh whose content hash differs.
     """
-    from .mesh import TetMesh
-
     z, _ = read_npz_entry(path)
     try:
         if int(z["format"]) != MESH_FORMAT_VERSION:

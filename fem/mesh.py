@@ -10,88 +10,24 @@ meshing by duplicating its nodes. Results are cached on disk (:mod:`fem.cache`).
 from __future__ import annotations
 
 import ctypes
-import hashlib
 import os
 from contextlib import contextmanager
-from dataclasses import dataclass, field
 from os import PathLike
 
 import numpy as np
 
 from isj.design import REGIONS, Geometry
-from isj.errors import MeshError  # noqa: F401 - re-exported, its old home
+from isj.errors import MeshError
 
 from .cache import cached_mesh
 from .geometry import GMSH_UNIT_M, MeshSizes, build_cantilever, build_pedicle_joint
+from .tetmesh import TetMesh
 
 #: Gmsh element type of the 4-node tetrahedron and the 3-node triangle.
 _TET4, _TRI3 = 4, 2
 
 #: Bone regions the capsule touches; the free interface is cut between these and the capsule.
 _SLEEVED = ("stapes", "gap", "plate")
-
-
-@dataclass(frozen=True, eq=False)
-class TetMesh:
-    """A linear tetrahedral mesh with regions and named boundary faces.
-
-    Attributes
-    ----------
-    points : ndarray, shape (n_nodes, 3), float64
-        Node coordinates (m).
-    tets : ndarray, shape (n_tets, 4), int64
-        Node indices of each tetrahedron, positively oriented
-        (det[p1 − p0, p2 − p0, p3 − p0] > 0).
-    region : ndarray, shape (n_tets,), int8
-        Region id of each tetrahedron, an index into ``region_names``.
-    region_names : tuple of str
-        :data:`isj.design.REGIONS` for the joint model, ``("pedicle",)`` for the
-        cantilever.
-    faces : dict of str to ndarray, shape (n_tri, 3), int64
-        Named boundary triangles: ``"clamped"``, ``"loaded"`` and, for the joint
-        model, ``"capsule_free"`` (whose triangles use the bone-side node ids).
-        Node order makes (p1 − p0) × (p2 − p0) the outward normal; on
-        ``"capsule_free"`` it points out of the bone, into the capsule.
-    """
-
-    points: np.ndarray
-    tets: np.ndarray
-    region: np.ndarray
-    region_names: tuple[str, ...]
-    faces: dict[str, np.ndarray] = field(default_factory=dict)
-
-    @property
-    def n_nodes(self) -> int:
-        return int(self.points.shape[0])
-
-    @property
-    def n_tets(self) -> int:
-        return int(self.tets.shape[0])
-
-    def region_id(self, name: str) -> int:
-        """Region id of ``name`` (raises ValueError if absent)."""
-        return self.region_names.index(name)
-
-    def region_tets(self, name: str) -> np.ndarray:
-        """The tetrahedra (n, 4) of region ``name``."""
-        return self.tets[self.region == self.region_id(name)]
-
-    def content_hash(self) -> str:
-        """sha256 (hex) over the arrays' dtypes, shapes and bytes and all names."""
-        h = hashlib.sha256()
-
-        def add(tag: str, a: np.ndarray) -> None:
-            a = np.ascontiguousarray(a)
-            h.update(f"{tag}|{a.dtype.str}|{a.shape}|".encode())
-            h.update(a.tobytes())
-
-        add("points", self.points)
-        add("tets", self.tets)
-        add("region", self.region)
-        h.update(("names|" + "\x1f".join(self.region_names)).encode())
-        for name in sorted(self.faces):
-            add(f"face:{name}", self.faces[name])
-        return h.hexdigest()
 
 
 # --------------------------------------------------------------------------- gmsh run
@@ -145,6 +81,30 @@ def import_gmsh():
     return gmsh
 
 
+def initialize_gmsh(gmsh) -> None:
+    """``gmsh.initialize`` without config files, SIGINT handler or a file in the user's home.
+
+    gmsh's first initialisation in a process reads FLTK's options, and FLTK then creates
+    ``$HOME/.fltk/fltk.org/fltk.prefs``. For that call ``HOME`` and ``XDG_CONFIG_HOME`` point
+    at a temporary folder, removed afterwards, and are then restored: nothing is written
+    beyond the caches and the outputs. ``interruptible=False``: gmsh's SIGINT handler can only
+    be installed from the main thread.
+    """
+    import tempfile
+
+    saved = {k: os.environ.get(k) for k in ("HOME", "XDG_CONFIG_HOME")}
+    with tempfile.TemporaryDirectory(prefix="isj-gmsh-home-") as home:
+        os.environ.update(HOME=home, XDG_CONFIG_HOME=home)
+        try:
+            gmsh.initialize(readConfigFiles=False, interruptible=False)
+        finally:
+            for k, v in saved.items():
+                if v is None:
+                    os.environ.pop(k, None)
+                else:
+                    os.environ[k] = v
+
+
 #: Names under which gmsh's OpenMP runtime is loaded (Linux, macOS).
 _OPENMP_LIBS = ("libgomp.so.1", "libgomp.1.dylib", "libomp.dylib")
 
@@ -188,8 +148,7 @@ def _gmsh_mesh(kind, builder, geometry, sizes, region_names, face_names):
 
 
 def _gmsh_session(gmsh, kind, builder, geometry, sizes, region_names, face_names):
-    # interruptible=False: gmsh's SIGINT handler can only be installed from the main thread.
-    gmsh.initialize(readConfigFiles=False, interruptible=False)
+    initialize_gmsh(gmsh)
     try:
         _configure(gmsh)
         gmsh.model.add(f"isj_{kind}")

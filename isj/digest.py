@@ -1,27 +1,26 @@
-"""Digests of isj's own code, for cache keys: a cached result is reused only by the code that made it.
+"""Which isj modules a piece of code reaches, found through the import system.
 
-:func:`code_digest` hashes the source of some isj modules and of every isj module
-they import, directly or through others, at module level or inside functions
-(a lazy import inside a function is as much a dependency as one at the top).
-Modules are located through the import system (:func:`importlib.util.find_spec`)
-and their source is read through their loader (``get_source``), never by file
-path, so the digest is the same in a source checkout, an editable install, a
-wheel or a zip. Module names and sources are hashed, not locations: two copies
-of the same code give the same digest.
+:func:`closure` gives some isj modules and every isj module they import, directly or
+through others, at module level or inside functions (a lazy import inside a function is as
+much a dependency as one at the top); :func:`function_imports` the modules that given
+functions import. Modules are located through the import system
+(:func:`importlib.util.find_spec`) and their source is read through their loader
+(``get_source``), never by file path, so the answer is the same in a source checkout, an
+editable install, a wheel or a zip.
 
-Imports under ``if TYPE_CHECKING:`` are left out: they never run. Modules
-outside isj (numpy, gmsh, ...) are left out too; keys that depend on a
-third-party version (gmsh's meshes) add that version themselves.
+No cache key hashes code: keys hold results versions (:mod:`isj.results_version`). This
+module serves the tests that check that each report step's declared result families cover
+the code it reaches (:func:`isj.reports.steps.step_modules`, tests/test_cache_keys.py) and
+that no key function loads it.
 
-Digests are computed once per process and then reused: they describe the code
-as this process first read it, which is the code it runs.
+Imports under ``if TYPE_CHECKING:`` are left out: they never run. Modules outside isj
+(numpy, gmsh, ...) are left out too.
 """
 
 from __future__ import annotations
 
 import ast
 import functools
-import hashlib
 import importlib.util
 import inspect
 import marshal
@@ -160,30 +159,6 @@ def closure(modules: Iterable[str]) -> tuple[str, ...]:
     return tuple(sorted(seen))
 
 
-@functools.cache
-def _digest(modules: tuple[str, ...]) -> str:
-    h = hashlib.sha256()
-    for name in modules:
-        h.update(name.encode() + b"\0" + module_source(name).encode() + b"\0")
-    return h.hexdigest()
-
-
-def code_digest(*modules: str) -> str:
-    """sha256 (hex) of the sources of ``modules`` and of every isj module they import, transitively.
-
-    Examples
-    --------
-    >>> len(code_digest("isj.design"))
-    64
-    """
-    return _digest(closure(modules))
-
-
-def source_digest(*modules: str) -> str:
-    """sha256 (hex) of the sources of exactly ``modules`` (none of their imports)."""
-    return _digest(tuple(sorted(set(modules))))
-
-
 def function_imports(
     *functions: Callable, follow: Mapping[str, Callable | str] | None = None
 ) -> frozenset[str]:
@@ -201,7 +176,7 @@ def function_imports(
     Returns
     -------
     frozenset of str
-        Module names; pass them to :func:`code_digest` for their closure.
+        Module names; pass them to :func:`closure` for their closure.
     """
     follow = dict(follow or {})
     found: set[str] = set()

@@ -7,8 +7,10 @@
 A built surrogate is stored in ``$ISJ_FE_CACHE_DIR/rom`` (default
 ``~/.cache/isj/fe/rom``) as one checksummed NPZ entry (:mod:`isj.cachefile`), keyed
 by the mesh's content hash, the element order, the geometry, the design space, the
-greedy's settings and the digest of this package's code and everything it imports
-(:func:`isj.digest.code_digest`). A damaged entry is reported, deleted and rebuilt.
+greedy's settings and the results versions of the surrogate and of the FE model it reduces
+(:func:`isj.results_version.versions`, docs/developer/cache-keys.md). A damaged entry is
+reported, deleted and rebuilt. A build in progress keeps its finished greedy steps beside
+the entry and resumes from them if killed; two builds of one entry take turns (:func:`reduced_model`).
 """
 
 from __future__ import annotations
@@ -23,12 +25,13 @@ from pathlib import Path
 
 import numpy as np
 
+from isj.atomic import file_lock
 from isj.cachefile import DamagedEntry, canonical_json, discard, read_npz_entry, write_npz_entry
 from isj.design import DEFAULT_PRESSURE_PA, Geometry, check_pressure
-from isj.digest import code_digest
+from isj.design_space import RANGED, DesignSpace
 from isj.errors import CacheWarning, InvalidParameter
+from isj.results_version import versions
 
-from .domain import RANGED, DesignSpace
 from .local import evaluate_local, unpack
 from .online import derived_bounds, evaluate_unit
 
@@ -53,8 +56,40 @@ def rom_cache_dir() -> Path:
     return fe_cache_dir() / "rom"
 
 
+@dataclasses.dataclass(frozen=True)
+class SurrogateStaticResult:
+    """One design's α and β from the surrogate, with their certified bounds (SI units).
+
+    ``*_bound*``: |FE − surrogate| ≤ bound, FE on the same mesh (:meth:`ReducedModel.evaluate`).
+    """
+
+    alpha_rad: float
+    alpha_bound_rad: float
+    beta_rad: float
+    beta_bound_rad: float
+    alpha_plus_beta_rad: float
+    alpha_plus_beta_bound_rad: float
+    beta_over_alpha: float
+    beta_over_alpha_bound: float
+    coercivity_lb: float
+    pressure_pa: float
+    moduli: dict
+    nu: float
+    sizes: dict
+
+    def to_dict(self) -> dict:
+        """The keys of ``isj rom solve --json``: the values, the moduli (Pa), ν and the sizes."""
+        out = {f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.name != "sizes"}
+        return out | {"moduli": dict(self.moduli)} | dict(self.sizes)
+
+
 class ReducedModel:
     """A built surrogate: the online arrays, its design space and what it was built from.
+
+    The surrogate is static only: :meth:`static` (one design) and :meth:`evaluate` (many). It has
+    no mass, so no ``frequency_response`` and no ``natural_frequencies_hz``; the FE model's
+    are :meth:`isj.fem.model.PedicleJointModel.frequency_response` and
+    :meth:`isj.fem.model.PedicleJointModel.natural_frequencies_hz`.
 
     Parameters
     ----------
@@ -94,7 +129,7 @@ class ReducedModel:
         Parameters
         ----------
         designs : a :class:`isj.design.Materials`, a mapping of moduli (floats or arrays, Pa), or
-            an (n, 5) array of the ranged moduli in :data:`isj.fem.rom.domain.RANGED` order
+            an (n, 5) array of the ranged moduli in :data:`isj.design_space.RANGED` order
         pressure_pa : load (Pa); the outputs and bounds scale with it
         moduli : keyword moduli, overriding ``designs``; missing ones take the defaults
 
@@ -149,21 +184,20 @@ class ReducedModel:
             return evaluate_local(self.boxes, self.space.to_unit(E), theta)
         return evaluate_unit(self.arrays, theta)
 
-    def solve(self, materials=None, pressure_pa: float = DEFAULT_PRESSURE_PA, **moduli) -> dict:
-        """One design: the keys of :meth:`evaluate` as floats, plus the moduli and the model's sizes."""
+    def static(
+        self, materials=None, pressure_pa: float = DEFAULT_PRESSURE_PA, **moduli
+    ) -> SurrogateStaticResult:
+        """One design: the values of :meth:`evaluate` as floats, with the moduli and the model's sizes."""
         E = self.space.designs_from(materials, **moduli)
         if E.shape[0] != 1:
-            raise InvalidParameter(f"designs: solve takes one design, not {E.shape[0]}; use evaluate")
+            raise InvalidParameter(f"designs: static takes one design, not {E.shape[0]}; use evaluate")
         out = {k: float(v[0]) for k, v in self.evaluate(E, pressure_pa).items()}
-        return (
-            out
-            | {
-                "pressure_pa": float(pressure_pa),
-                "moduli": dict(zip(RANGED, map(float, E[0]), strict=True))
-                | {"incus_e_pa": self.space.incus_e_pa},
-                "nu": self.space.nu,
-            }
-            | self.sizes()
+        return SurrogateStaticResult(
+            **out,
+            pressure_pa=float(pressure_pa),
+            moduli=dict(zip(RANGED, map(float, E[0]), strict=True)) | {"incus_e_pa": self.space.incus_e_pa},
+            nu=self.space.nu,
+            sizes=self.sizes(),
         )
 
     def sizes(self) -> dict:
@@ -195,7 +229,7 @@ class ReducedModel:
 
     def save(self, path: str | Path) -> None:
         """Write to ``path`` (.npz, checksummed, atomic)."""
-        meta = self.meta | {"space": self.space.to_dict(), "format": ROM_FORMAT_VERSION}
+        meta = self.meta | {"space": self.space.to_record(), "format": ROM_FORMAT_VERSION}
         write_npz_entry(path, dict(self.arrays) | {"meta_json": np.array(canonical_json(meta))})
 
     @classmethod
@@ -207,14 +241,10 @@ class ReducedModel:
             if meta.get("format") != ROM_FORMAT_VERSION:
                 raise DamagedEntry(f"format {meta.get('format')} != {ROM_FORMAT_VERSION}")
             sp = meta.pop("space")
-            space = DesignSpace({k: tuple(v) for k, v in sp["bounds"].items()}, sp["incus_e_pa"], sp["nu"])
+            space = DesignSpace.from_record(sp)
         except (KeyError, TypeError, ValueError) as exc:
             raise DamagedEntry(f"{type(exc).__name__}: {exc}") from exc
         return cls(arrays, space, meta)
-
-
-def _code_digest() -> str:
-    return code_digest("isj.fem.rom.model", "isj.fem.rom.offline", "isj.fem.model")
 
 
 def cache_key(mesh_hash: str, order: int, geometry: Geometry, space: DesignSpace, settings: dict) -> str:
@@ -223,9 +253,9 @@ def cache_key(mesh_hash: str, order: int, geometry: Geometry, space: DesignSpace
         "mesh": mesh_hash,
         "order": order,
         "geometry": dataclasses.asdict(geometry),
-        "space": space.to_dict(),
+        "space": space.to_record(),
         "settings": settings,
-        "code": _code_digest(),
+        "versions": versions("surrogate"),
         "format": ROM_FORMAT_VERSION,
     }
     return hashlib.sha256(canonical_json(payload).encode()).hexdigest()
@@ -242,21 +272,27 @@ def build_reduced_model(
     max_snapshots: int = MAX_SNAPSHOTS,
     solver: str = "auto",
     progress=None,
+    steps=None,
 ) -> ReducedModel:
-    """Run the greedy on an assembled :class:`isj.fem.model.PedicleJointModel` (no cache).
+    """Run the greedy on an assembled :class:`isj.fem.model.PedicleJointModel`.
 
     Training set: the 32 corners and ``n_train`` scrambled Sobol designs (seed ``seed``);
     validation: the corners, the box's 80 edge midpoints and ``n_validate`` other Sobol
     designs (seed ``seed + 1``). Stops when every validation design's relative bound on α,
     β and β/α is at most ``tol`` (or at ``max_snapshots``; ``meta["converged"]`` says which).
+    ``steps`` (:class:`isj.fem.rom.offline.GreedySteps`) keeps each finished greedy step on
+    disk and resumes from those a killed build left; without it nothing is written.
     """
     from ..ear.joint_condensation import one_blas_thread
-    from .local import local_bases, pack
-    from .offline import Greedy, relative_bounds, run_greedy
+    from .local import local_bases, pack, relative_bounds
+    from .offline import Greedy, run_greedy
 
     space = space or DesignSpace()
     if not (isinstance(tol, float | int) and 0 < tol < 1):
         raise InvalidParameter(f"tol = {tol!r}: must lie in (0, 1)")
+    for k, (lo, hi) in space.bounds.items():
+        if not lo < hi:
+            raise InvalidParameter(f"{k} = {(lo, hi)!r} Pa: the surrogate needs low < high")
     t0 = time.perf_counter()
     greedy = Greedy(model, space, solver)
     corners = space.corners()
@@ -264,7 +300,7 @@ def build_reduced_model(
     validate = np.concatenate(
         [corners, space.from_unit(_edge_midpoints()), space.sample(n_validate, seed + 1)]
     )
-    hist = run_greedy(greedy, train, validate, tol, max_steps=max_snapshots, progress=progress)
+    hist = run_greedy(greedy, train, validate, tol, max_steps=max_snapshots, progress=progress, steps=steps)
     arrays = greedy.arrays(orthogonality=True)
     t_local = time.perf_counter()
     with one_blas_thread():  # small dense work: OpenBLAS's threads only wait for each other
@@ -292,6 +328,7 @@ def build_reduced_model(
         "build_time_s": time.perf_counter() - t0,
         "timings_s": dict(greedy.timings_s),
         "representer_rel_error": greedy.xsolve.rel,
+        "resumed_snapshots": steps.restored if steps is not None else 0,
     }
     return ReducedModel(arrays, space, meta)
 
@@ -324,29 +361,49 @@ def reduced_model(
 
     ``settings`` go to :func:`build_reduced_model` (``n_train``, ``n_validate``, ``seed``,
     ``max_snapshots``, ``solver``).
+
+    A build keeps each finished greedy step in ``rom-<key>.steps/`` beside the entry
+    (:class:`isj.fem.rom.offline.GreedySteps`), so that a killed build resumes at its last
+    step, to the same surrogate bit for bit; the steps are removed once the entry is stored.
+    Two processes asking for the same surrogate take turns (a lock file ``rom-<key>.lock``):
+    the second waits for the first and loads its entry.
     """
     from ..mesh import mesh_pedicle_joint
-    from ..model import PedicleJointModel
+    from .offline import GreedySteps
 
     geometry = geometry or Geometry()
     space = space or DesignSpace()
     mesh = mesh_pedicle_joint(geometry, resolution=resolution)
     keyed = {"tol": tol, "resolution": resolution} | {k: v for k, v in settings.items() if k != "solver"}
-    path = rom_cache_dir() / f"rom-{cache_key(mesh.content_hash(), order, geometry, space, keyed)[:32]}.npz"
-    if cache and path.exists():
-        try:
-            return ReducedModel.load(path)
-        except DamagedEntry as exc:
-            discard(path, "surrogate", str(exc), stacklevel=2)
-    t0 = time.perf_counter()
-    model = PedicleJointModel(geometry, order, resolution, mesh=mesh)
-    rom = build_reduced_model(model, space, tol=tol, progress=progress, **settings)
-    rom.meta["resolution"] = resolution
-    rom.meta["build_time_s"] = time.perf_counter() - t0  # assembly included
-    if cache:
+    key = cache_key(mesh.content_hash(), order, geometry, space, keyed)
+    path = rom_cache_dir() / f"rom-{key[:32]}.npz"
+    if not cache:
+        return _build(geometry, order, resolution, mesh, space, tol, progress, None, settings)
+    with file_lock(path.with_suffix(".lock")):  # a second build of the same entry waits here
+        if path.exists():
+            try:
+                return ReducedModel.load(path)
+            except DamagedEntry as exc:
+                discard(path, "surrogate", str(exc), stacklevel=2)
+        steps = GreedySteps(path.with_suffix(".steps"), key)
+        rom = _build(geometry, order, resolution, mesh, space, tol, progress, steps, settings)
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
             rom.save(path)
         except OSError as exc:
             warnings.warn(f"could not write surrogate cache entry {path}: {exc}", CacheWarning, stacklevel=2)
+        else:
+            steps.clear()
+    return rom
+
+
+def _build(geometry, order, resolution, mesh, space, tol, progress, steps, settings) -> ReducedModel:
+    """Assemble the FE model of ``mesh`` and build its surrogate (:func:`build_reduced_model`)."""
+    from ..model import PedicleJointModel
+
+    t0 = time.perf_counter()
+    model = PedicleJointModel(geometry, order, resolution, mesh=mesh)
+    rom = build_reduced_model(model, space, tol=tol, progress=progress, steps=steps, **settings)
+    rom.meta["resolution"] = resolution
+    rom.meta["build_time_s"] = time.perf_counter() - t0  # assembly included
     return rom
