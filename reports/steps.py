@@ -93,7 +93,7 @@ def model_step(ctx: Context) -> tuple[dict, dict]:
 
     cfg = ctx.config
     model, mesh_hash = shared_model(ctx.settings)
-    res = model.solve(cfg.design.materials(), cfg.design.pressure_pa)
+    res = model.static(cfg.design.materials(), cfg.design.pressure_pa)
     mesh = model.mesh
     q = mesh_quality(mesh)
     # the half y < 0 (y = 0 is the plane of symmetry): its cut face shows the joint inside
@@ -127,7 +127,7 @@ def write_base_vtu(ctx: Context, path: Path) -> Path:
     from isj.fem.export import write_model_vtu
 
     model, _ = shared_model(ctx.settings)
-    res = model.solve(ctx.config.design.materials(), ctx.config.design.pressure_pa)
+    res = model.static(ctx.config.design.materials(), ctx.config.design.pressure_pa)
     return write_model_vtu(path, model, res)
 
 
@@ -214,7 +214,9 @@ def convergence_step(ctx: Context) -> tuple[dict, dict]:
 
 def calibration_step(ctx: Context) -> tuple[dict, dict]:
     """The calibration's recorded quality, and a fresh check on designs it never saw."""
-    from isj.calibration.doe import DesignSpace, sample
+    from isj.calibration.doe import sample
+
+    from isj.design_space import DesignSpace
 
     cal = ctx.calibration
     c = ctx.config.calibration
@@ -325,9 +327,9 @@ def ear_step(ctx: Context) -> tuple[dict, dict]:
     from tqdm import tqdm
 
     bar = tqdm(THESIS_CASES, desc="whole ear, 7 cases", unit="case", disable=not ctx.progress, leave=False)
-    cases = {c.name: ear.solve(c.materials(base), cfg.ear) for c in bar}
+    cases = {c.name: ear.static(c.materials(base), cfg.ear) for c in bar}
     rigid_model = MiddleEarModel(joint=None, geometry=ear.geometry)
-    rigid = rigid_model.solve(base, cfg.ear)
+    rigid = rigid_model.static(base, cfg.ear)
     res0 = cases[THESIS_CASES[0].name]
     g = ear.geometry
     result = {
@@ -401,11 +403,28 @@ STEPS = (
 )
 
 
-def step_inputs(ctx: Context, sections: tuple[str, ...], step=None) -> dict:
-    """What a step's result depends on: its config sections, the code it runs, the calibration.
+def step_versions(step=None) -> dict:
+    """The results versions a step's key holds (:func:`isj.results_version.step_versions`).
 
-    ``step`` is the step's function (None: every step's, a safe superset); see
-    :func:`step_code_digest`.
+    ``step``: the step's function or name; None, or a function that is not one of
+    :data:`STEPS`, gives every step's version and every family's (a safe superset).
+    Versions, not the code's text: a refactor keeps every finished step, a change of what a
+    step computes bumps its version or a family's (docs/developer/cache-keys.md).
+    """
+    from isj import results_version as rv
+
+    name = step if isinstance(step, str) else next((n for n, fn, _ in STEPS if fn is step), None)
+    if name is None:
+        return {"steps": dict(rv.STEP_VERSIONS)} | rv.versions(*rv.VERSIONS)
+    return rv.step_versions(name)
+
+
+def step_inputs(ctx: Context, sections: tuple[str, ...], step=None) -> dict:
+    """What a step's result depends on: its config sections, its results versions, the calibration.
+
+    ``step`` is the step's function or name (None: every step's, a safe superset); see
+    :func:`step_versions`. The FE results a step reads are keyed by the same configuration
+    and families' versions, so these are also the keys of its upstream results.
     """
     d = ctx.config.to_dict()
 
@@ -416,13 +435,13 @@ def step_inputs(ctx: Context, sections: tuple[str, ...], step=None) -> dict:
 
     inputs = {
         "config": {s: d[s] for s in sections},
-        "code": step_code_digest(ctx, step),
+        "versions": step_versions(step),
         "calibration": numbers(ctx.calibration),
     }
     if "sliding" in sections:  # its lumped columns read each joint's shipped calibration: data, not code
         cals = {j: lumped_calibration(ctx, j) for j in ctx.config.sliding.joints}
         inputs["joint_calibrations"] = {j: numbers(c) for j, c in cals.items() if c is not None}
-    if "geometry_trends" in sections or step in (calibration_step, None):
+    if "geometry_trends" in sections or step in (calibration_step, "calibration", None):
         # the shipped geometry calibration (its domain, errors; the trends' lumped curves): data too
         from isj.lumped.artifact import geometry_calibration
 
@@ -439,6 +458,8 @@ def step_modules(ctx: Context, step=None) -> tuple[str, ...]:
     way (``ctx.lumped`` brings in :mod:`isj.lumped.model`), plus the modules of the
     objects in the context that it reads (``ctx.calibration``:
     :mod:`isj.lumped.artifact`). Found through the import system (:mod:`isj.digest`).
+    Not part of any key: ``tests/test_cache_keys.py`` checks with it that each step's
+    families (:data:`isj.results_version.STEP_FAMILIES`) cover the code it reaches.
     """
     import inspect
     import sys
@@ -456,16 +477,3 @@ def step_modules(ctx: Context, step=None) -> tuple[str, ...]:
     members = {n: m for n, m in vars(Context).items() if inspect.isfunction(m) or isinstance(m, property)}
     held = {f.name: type(getattr(ctx, f.name)).__module__ for f in dataclasses.fields(ctx)}
     return digest.closure(digest.function_imports(*steps, follow=imported | here | members | held))
-
-
-def step_code_digest(ctx: Context, step=None) -> str:
-    """sha256 (hex) of this module's source and of the :func:`step_modules` of ``step``.
-
-    An edit of the lumped model thus recomputes the steps that use it, and only those.
-    """
-    import hashlib
-
-    from isj import digest
-
-    text = digest.source_digest(__name__) + digest.code_digest(*step_modules(ctx, step))
-    return hashlib.sha256(text.encode()).hexdigest()

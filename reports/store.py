@@ -1,7 +1,8 @@
 """Results of report steps, cached on disk by a hash of everything they depend on.
 
 A step's key covers its name, the part of the configuration it reads, the
-digest of the code it runs (:func:`isj.reports.steps.step_inputs`) and the
+results versions of the step and of the result families it reads
+(:func:`isj.reports.steps.step_inputs`, docs/developer/cache-keys.md) and the
 calibration it uses. A finished step is stored atomically
 (``<dir>/<step>-<key>.json``, plus an ``.npz`` for arrays); an interrupted
 report therefore resumes at the first unfinished step, and a second report on
