@@ -1,24 +1,28 @@
-"""Cache keys come from the code a result depends on, found through the import system (isj.digest).
+"""Cache keys hold a result's inputs and the results versions it depends on (isj.results_version), not code.
 
-The end-to-end check runs the coarse report (tests/conftest.py) again in a
-subprocess on a copy of isj whose lumped equations differ: the steps that use
-the lumped model are recomputed with the new equation, the FE-only steps come
-from the cache (so a copy of the same code elsewhere gives the same keys).
+Each key changes with the version of each family the result depends on and with no other
+(:data:`isj.results_version.DEPENDS`); each report step's families cover the code it reaches
+(found through the import system, :mod:`isj.digest`). The end-to-end check runs the coarse
+report (tests/conftest.py) again in a subprocess on a copy of isj whose lumped equations differ
+and whose ``lumped`` version is bumped, as the honesty rule asks: the steps that use the lumped
+model are recomputed with the new equation, the FE-only steps come from the cache (so a copy of
+the same code elsewhere gives the same keys). tests/test_cache_invalidation.py tests the FE
+results both ways on copies.
 """
 
 import ast
-import importlib
-import importlib.resources
+import importlib.metadata
 import json
 import os
-import pkgutil
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
+from test_cache_invalidation import copy_of_isj, edit
 
 from isj import digest
+from isj import results_version as rv
 
 
 def test_imports_in_resolves_relative_submodule_and_attribute_imports():
@@ -35,72 +39,133 @@ def test_imports_in_resolves_relative_submodule_and_attribute_imports():
     assert digest.imports_in(ast.parse(text), "isj") == {"isj.design", "isj", "isj.ear"}
 
 
-def test_fe_code_digest_is_the_import_closure_of_fem_batch():
+def test_no_key_reads_the_code():
+    """The FE, the mesh cache, the surrogate and the runner never load isj.digest."""
+    for module in ("isj.fem.batch", "isj.fem.rom.model", "isj.calibration.runner", "isj.reports.store"):
+        assert "isj.digest" not in digest.closure([module]), module
+
+
+def test_versions_close_over_their_families_and_name_the_libraries():
+    v = rv.versions("fe_dynamic")
+    assert {k for k in v if k in rv.VERSIONS} == {"mesh", "fe_static", "fe_dynamic"}
+    assert v["gmsh"] == importlib.metadata.version("gmsh")  # full: another gmsh may mesh differently
+    assert v["numpy"] == ".".join(importlib.metadata.version("numpy").split(".")[:2])
+    assert v["scipy"] == ".".join(importlib.metadata.version("scipy").split(".")[:2])
+    assert rv.versions("lumped") == {"lumped": rv.VERSIONS["lumped"]}
+    assert set(rv.VERSIONS) == set(rv.DEPENDS) and set(rv.STEP_VERSIONS) == set(rv.STEP_FAMILIES)
+    from isj.errors import InvalidParameter
+
+    with pytest.raises(InvalidParameter, match="fe_statc"):
+        rv.versions("fe_statc")
+
+
+def _keys(ctx) -> dict[str, str]:
+    """Every kind of key for one input each, under the versions in force now."""
+    from isj.calibration.runner import design_key, keyed_settings
+    from isj.fem import cache as mesh_cache
+    from isj.fem.batch import evaluate_design, evaluate_modes, fe_settings
+    from isj.fem.geometry import MeshSizes
+    from isj.fem.rom.model import cache_key as rom_key
+    from isj.reports.steps import STEPS, step_inputs
+    from isj.reports.store import step_key
+
+    from isj.design import Geometry
+    from isj.design_space import DesignSpace
+
+    s = fe_settings(order=1, resolution=0.35)
+    out = {
+        "mesh": mesh_cache.cache_key("pedicle_joint", Geometry(), MeshSizes()),
+        "static": design_key({}, keyed_settings(evaluate_design, s)),
+        "modes": design_key({}, keyed_settings(evaluate_modes, s | {"kind": "modes"})),
+        "surrogate": rom_key("0" * 64, 1, Geometry(), DesignSpace(), {"tol": 1e-3}),
+    }
+    for name, fn, sections in STEPS:
+        if name in ("model", "cases", "ear", "uq"):
+            out[f"step:{name}"] = step_key(name, step_inputs(ctx, sections, fn))
+    return out
+
+
+@pytest.mark.parametrize(
+    "family, changed",
+    [
+        ("mesh", {"mesh", "static", "modes", "surrogate", "step:model", "step:cases", "step:ear"}),
+        ("fe_static", {"static", "modes", "surrogate", "step:model", "step:cases", "step:ear"}),
+        ("fe_dynamic", {"modes", "step:model", "step:cases", "step:ear"}),
+        ("ear", {"step:ear"}),
+        ("surrogate", {"surrogate"}),
+        ("lumped", {"step:cases", "step:uq"}),
+        ("drum_modes", {"step:uq"}),
+    ],
+)
+def test_a_bumped_version_changes_exactly_the_keys_of_what_depends_on_it(family, changed, monkeypatch):
+    from isj.reports.config import ReportConfig
+    from isj.reports.run import load_calibration
+    from isj.reports.steps import Context
+
+    cfg = ReportConfig()
+    ctx = Context(cfg, load_calibration(cfg), Path("unused"))
+    before = _keys(ctx)
+    monkeypatch.setitem(rv.VERSIONS, family, rv.VERSIONS[family] + 1)
+    after = _keys(ctx)
+    assert {k for k in before if before[k] != after[k]} == changed
+
+
+def test_a_bumped_step_version_changes_that_step_only(monkeypatch):
+    from isj.reports.config import ReportConfig
+    from isj.reports.run import load_calibration
+    from isj.reports.steps import Context
+
+    cfg = ReportConfig()
+    ctx = Context(cfg, load_calibration(cfg), Path("unused"))
+    before = _keys(ctx)
+    monkeypatch.setitem(rv.STEP_VERSIONS, "cases", rv.STEP_VERSIONS["cases"] + 1)
+    after = _keys(ctx)
+    assert {k for k in before if before[k] != after[k]} == {"step:cases"}
+
+
+def test_the_fe_settings_carry_the_versions_and_the_runner_those_of_its_evaluator():
+    from isj.calibration.runner import keyed_settings
     from isj.fem import batch
 
-    deps = digest.closure(["isj.fem.batch"])
-    assert {"isj.fem.model", "isj.fem.dynamics", "isj.fem.mesh", "isj.design"} <= set(deps)  # dynamics: lazy
-    assert not [m for m in deps if m.startswith(("isj.lumped", "isj.reports", "isj.calibration"))]
-    assert batch.fem_code_digest() == digest.code_digest("isj.fem.batch")
-    assert len(batch.fem_code_digest()) == 64
-    assert digest.code_digest("isj.fem.batch") != digest.code_digest("isj.fem.mesh")
+    from isj.errors import InvalidParameter
+
+    s = batch.fe_settings(order=1, resolution=0.35)
+    assert s["versions"] == rv.versions("fe_static")
+    assert keyed_settings(batch.evaluate_harmonic, s)["versions"] == rv.versions("fe_dynamic")
+    assert keyed_settings(lambda d, s: {}, s) == s  # an evaluator without families: unchanged
+    other = {**s, "versions": {**s["versions"], "mesh": s["versions"]["mesh"] + 1}}
+    with pytest.raises(InvalidParameter, match="versions"):
+        batch.evaluate_modes({}, other)
 
 
-def test_each_report_step_depends_on_the_lumped_model_exactly_when_it_uses_it():
+#: Modules whose code makes a family's results: a step that reaches one reads that family.
+FAMILY_MODULES = {
+    "mesh": ("isj.fem.mesh", "isj.fem.geometry"),
+    "fe_static": ("isj.fem.model", "isj.fem.assembly"),
+    "fe_dynamic": ("isj.fem.dynamics",),
+    "ear": ("isj.fem.ear.middle_ear", "isj.fem.ear.reduced_ear"),
+    "drum_modes": ("isj.fem.ear.drum_modes", "isj.lumped.ear_drum"),
+    "surrogate": ("isj.fem.rom",),
+    "lumped": ("isj.lumped.model", "isj.lumped.dynamics", "isj.lumped.ear"),
+}
+
+
+def test_each_report_step_reads_every_family_whose_code_it_reaches():
+    """STEP_FAMILIES, closed over DEPENDS, cover the families of the modules each step's code reaches."""
     from isj.reports.config import ReportConfig
     from isj.reports.run import load_calibration
     from isj.reports.steps import STEPS, Context, step_modules
 
     cfg = ReportConfig()
     ctx = Context(cfg, load_calibration(cfg), Path("unused"))
-    uses_lumped = {"cases", "trends", "calibration", "sweep", "load_path", "guard", "uq", "geometry_trends"}
-    uses_lumped.add("sliding")  # each joint's lumped α, β beside FE (docs/lumped.md §3.14)
+    assert [name for name, _, _ in STEPS] == list(rv.STEP_VERSIONS)
     for name, fn, _ in STEPS:
-        mods = step_modules(ctx, fn)
-        lumped = {m for m in mods if m.startswith("isj.lumped")}
-        if name in uses_lumped:
-            assert "isj.lumped.model" in lumped, name
-        else:
-            assert not lumped, (name, lumped)
-    by_name = {name: set(step_modules(ctx, fn)) for name, fn, _ in STEPS}
-    assert {"isj.fem.batch", "isj.fem.quality"} <= by_name["model"]
-    assert "isj.fem.convergence" in by_name["convergence"]
-    assert "isj.fem.ear.middle_ear" in by_name["ear"]
-    assert "isj.fem.ear.reduced_ear" in by_name["transmission"]
-    assert "isj.lumped.dynamics" in by_name["sweep"]
-    assert "isj.lumped.artifact" in by_name["calibration"]  # the calibration object's own code
-
-
-def _all_modules() -> dict[str, bool]:
-    """Every isj module → is it a package, through the import system (an editable install maps
-    isj.fem to another folder, so isj's own folder does not list it)."""
-    found = {m: False for m in digest.closure(["isj.reports.run", "isj.cli"])}
-    packages = {"isj"} | {m.rpartition(".")[0] for m in found if "." in m}
-    todo = sorted(packages)
-    while todo:
-        pkg = todo.pop()
-        found[pkg] = True
-        for info in pkgutil.iter_modules(importlib.import_module(pkg).__path__, pkg + "."):
-            if info.ispkg and info.name not in packages:
-                packages.add(info.name)
-                todo.append(info.name)
-            found.setdefault(info.name, info.ispkg)
-    return found
-
-
-def _copy_of_isj(dest: Path) -> Path:
-    """isj as a wheel lays it out, rebuilt from the import system (sources and package data)."""
-    for name, is_package in _all_modules().items():
-        parts = name.split(".")
-        stem = dest.joinpath(*parts)
-        path = stem / "__init__.py" if is_package else stem.with_name(parts[-1] + ".py")
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(digest.module_source(name))
-    data = importlib.resources.files("isj.lumped") / "data"
-    (dest / "isj" / "lumped" / "data").mkdir(exist_ok=True)
-    for f in data.iterdir():
-        (dest / "isj" / "lumped" / "data" / f.name).write_bytes(f.read_bytes())
-    return dest
+        mods = set(step_modules(ctx, fn))
+        reached = {f for f, prefixes in FAMILY_MODULES.items() if any(m.startswith(prefixes) for m in mods)}
+        assert reached <= set(rv.families(*rv.STEP_FAMILIES[name])), (name, reached)
+    # and the FE-only steps do not read the lumped model (a change of it keeps them)
+    lumped = {n for n in rv.STEP_FAMILIES if "lumped" in rv.STEP_FAMILIES[n]}
+    assert {"model", "convergence", "ear", "transmission"}.isdisjoint(lumped)
 
 
 RUN_REPORT = """
@@ -115,13 +180,12 @@ print(json.dumps({"lumped_file": isj.lumped.model.__file__, "cached": res["cache
 """
 
 
-def test_changed_lumped_equation_recomputes_the_steps_that_use_it(report, tmp_path):
-    site = _copy_of_isj(tmp_path / "site")
-    model = site / "isj" / "lumped" / "model.py"
-    text = model.read_text()
+def test_changed_lumped_equation_with_its_version_bumped_recomputes_the_steps_that_use_it(report, tmp_path):
+    site = copy_of_isj(tmp_path / "site")
     anchor = "    return alpha, beta\n"  # the end of lumped.model.equations
-    assert text.count(anchor) == 1
-    model.write_text(text.replace(anchor, "    return alpha, 1.25 * beta  # changed by the test\n"))
+    changed = "    return alpha, 1.25 * beta  # changed by the test\n"
+    edit(site / "isj" / "lumped" / "model.py", anchor, changed)
+    edit(site / "isj" / "results_version.py", '    "lumped": 1,\n', '    "lumped": 2,\n')
 
     env = dict(os.environ, PYTHONPATH=str(site), ISJ_FE_CACHE_DIR=str(report["fe_cache"]))
     proc = subprocess.run(
@@ -136,8 +200,8 @@ def test_changed_lumped_equation_recomputes_the_steps_that_use_it(report, tmp_pa
     got = json.loads(proc.stdout.strip().splitlines()[-1])
     assert Path(got["lumped_file"]).is_relative_to(site)  # the changed copy is what ran
 
-    # the FE-only steps: same keys from a copy of the same code elsewhere, so cached
-    # (the sliding step shows each joint's lumped α, β: it runs again too)
+    # the steps without the lumped family: same keys from a copy of the same code elsewhere, so cached
+    assert sorted(got["cached"]) == sorted(n for n in rv.STEP_VERSIONS if "lumped" not in rv.STEP_FAMILIES[n])
     assert sorted(got["cached"]) == ["convergence", "ear", "model", "transmission"]
     # the lumped steps ran the changed equation: β × 1.25, α and every FE number unchanged
     before = report["second"]["steps"]["cases"]["rows"]

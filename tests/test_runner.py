@@ -7,14 +7,13 @@ from pathlib import Path
 
 import pytest
 from isj.calibration.runner import (
-    CorruptCacheEntry,
-    EvaluationError,
     ResultCache,
     design_key,
     run_designs,
 )
 
 from isj.cachefile import json_checksum
+from isj.errors import CorruptCacheEntry, EvaluationError
 
 
 def fake_evaluate(design: dict, settings: dict) -> dict:
@@ -219,8 +218,8 @@ def test_fe_evaluate_design_linear_and_memoised():
         batch.evaluate_design(design, {"resolutoin": 1.0})
     with pytest.raises(InvalidParameter, match="pedicle_e"):
         batch.evaluate_design({"pedicle_e": 1e9}, s1)
-    with pytest.raises(InvalidParameter, match="fem_code"):
-        batch.evaluate_design(design, {**s1, "fem_code": "0" * 64})
+    with pytest.raises(InvalidParameter, match="versions"):  # settings made by other FE results
+        batch.evaluate_design(design, {**s1, "versions": {**s1["versions"], "fe_static": 0}})
 
 
 def test_fe_evaluator_through_the_runner(tmp_path):
