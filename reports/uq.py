@@ -112,6 +112,45 @@ def uq_page(fig, uq: dict, histograms: dict):
     if uq.get("n_outside_domain"):
         lines.append(f"{uq['n_outside_domain']} draws lie outside the calibrated domain (extrapolated).")
     text_block(fig, 0.07, 0.30, wrap("\n".join(lines), 105), fontsize=7.5)
+    if uq.get("transmission") is not None:
+        text_block(fig, 0.07, 0.125, transmission_table(uq["transmission"]), fontsize=6.5)
+
+
+#: ΔH_V rows of the page's table: output key and label.
+_TRANSMISSION_ROWS = (
+    ("delta_h_v_db_1khz", "dH_V 1 kHz (dB)"),
+    ("delta_h_v_db_5khz", "dH_V 5 kHz (dB)"),
+    ("delta_h_v_db_10khz", "dH_V 10 kHz (dB)"),
+    ("delta_h_v_deg_1khz", "dH_V 1 kHz (deg)"),
+    ("delta_h_v_deg_5khz", "dH_V 5 kHz (deg)"),
+    ("delta_h_v_deg_10khz", "dH_V 10 kHz (deg)"),
+    ("max_abs_delta_h_v_db_to_10khz", "max |dH_V| <= 10 kHz (dB)"),
+)
+
+
+def transmission_table(t: dict) -> str:
+    """The page's ΔH_V table (monospace text): per output its median, 2.5–97.5 % and 0.1–99.9 %
+    ranges and the two largest total Sobol' indices, then P(max |ΔH_V| > 1 dB) with its standard
+    error; ``t``: the ``transmission`` of ``isj uq --json``."""
+    f = t["freq_hz"]
+    lines = [
+        f"Delta H_V = H_V / H_V(rigid connection), fast ear, {t['samples']} draws, Sobol' from "
+        f"{t['sobol_evaluations']} runs; grid {len(f)} frequencies {f[0]:g}..{f[-1]:g} Hz:",
+        f"  {'output':27} {'median':>8} {'2.5..97.5 %':>18} {'0.1..99.9 %':>18}   largest ST",
+    ]
+    for key, label in _TRANSMISSION_ROWS:
+        q = t["summary"][key]["quantiles"]
+        st = t["sobol"][key]["ST"]
+        top = sorted(st.items(), key=lambda kv: -kv[1])[:2]
+        lines.append(
+            f"  {label:27} {q['0.5']:+8.3f} {q['0.025']:+8.3f}..{q['0.975']:+8.3f} "
+            f"{q['0.001']:+8.3f}..{q['0.999']:+8.3f}   " + ", ".join(f"{_short(m)} {v:.2f}" for m, v in top)
+        )
+    p, se = t["p_abs_delta_h_v_gt_1db"], t["p_abs_delta_h_v_gt_1db_se"]
+    lines.append(
+        f"  P(max |Delta H_V| to 10 kHz > {t['threshold_db']:g} dB) = {p:.4f} +- {se:.4f} (Monte Carlo s.e.)"
+    )
+    return "\n".join(lines)
 
 
 def uq_figure(result, title: str = "Uncertainty of the moduli: alpha, beta and beta/alpha"):

@@ -310,7 +310,7 @@ class _FakeSurrogate:
     """Stands in for isj.fem.rom's ReducedModel: the lumped model with α 1 % larger."""
 
     def __init__(self):
-        from isj.fem.rom import DesignSpace
+        from isj.design_space import DesignSpace
 
         self.space = DesignSpace()
         self.meta = {"mesh_hash": "fake"}
@@ -357,3 +357,220 @@ def test_surrogate_evaluator_and_comparison(fake_surrogate, capsys, tmp_path):
     assert main(["uq", "--config", str(cfg), *argv[1:], "--compare-surrogate"]) == 0
     cmp = json.loads(capsys.readouterr().out)["surrogate_comparison"]
     assert 3000 < cmp["n"] <= 4000
+
+
+# ---- ΔH_V under uncertainty (the fast ear; docs/uq.md §11.10) --------------------------------------
+
+
+class _FakeFastEar:
+    """Stands in for isj.fem.ear.fast_ear.FastEar with a known ΔH_V: its magnitude depends on the
+    gap alone, |ΔH_V| = (E_gap / G0)^(c f / 10 kHz), its phase on the pedicle alone,
+    k ln(E_pedicle / P0) f / 10 kHz rad; the capsule, plate and stapes do not enter."""
+
+    C, K, G0, P0 = 0.5, 0.2, 7e6, 2e9
+
+    def __init__(self):
+        from isj.design_space import DesignSpace
+
+        self.space = DesignSpace()
+        self.calls = 0
+
+    def batch(self, freq_hz, designs, damping=None, **kw):
+        E = self.space.check(designs)  # refuses a design outside the domain, like the real one
+        self.calls += 1
+        s = np.asarray(freq_hz)[None] / 1e4
+        lg, lp = np.log(E[:, 1:2] / self.G0), np.log(E[:, 0:1] / self.P0)
+        d = np.exp(self.C * s * lg + 1j * self.K * s * lp)
+        return {"delta_h_v": d, "delta_db": 20 * np.log10(np.abs(d)), "delta_deg": np.degrees(np.angle(d))}
+
+
+def _fake_db(f_hz, gap_pa):
+    return 20 * _FakeFastEar.C * (f_hz / 1e4) * np.log(gap_pa / _FakeFastEar.G0) / math.log(10)
+
+
+def test_transmission_grid_and_outputs():
+    from isj.studies.uq import TRANSMISSION_FREQ_HZ, TRANSMISSION_OUTPUTS
+
+    f = TRANSMISSION_FREQ_HZ
+    assert f.size == 62 and f[0] == 100.0 and f[-1] == 10e3 and np.all(np.diff(f) > 0)
+    assert {1000.0, 5000.0, 10000.0} <= set(f.tolist())
+    assert TRANSMISSION_OUTPUTS[-1] == "max_abs_delta_h_v_db_to_10khz" and len(TRANSMISSION_OUTPUTS) == 7
+
+
+def test_transmission_known_model_indices_probability_and_percentiles():
+    """Against the fake ear's exact ΔH_V: each output's values, the Sobol' indices (the moduli that
+    do not enter exactly 0, within their interval; the one that does 1), P(max |ΔH_V| > 1 dB) as
+    the fraction counted directly with its standard error, and the percentiles of 20 000 draws
+    within the Dvoretzky–Kiefer–Wolfowitz bound of the exact ones (ln E_gap uniform)."""
+    from isj.studies.uq import TransmissionEvaluator, transmission_uq
+
+    cfg = UQConfig.default(**SMALL, seed=4, transmission_samples=20_000, transmission_sobol_samples=256)
+    ev = TransmissionEvaluator(_FakeFastEar())
+    m = sample_moduli(cfg, 20_000)
+    y = ev(m)
+    assert np.allclose(y["delta_h_v_db_5khz"], _fake_db(5e3, m["gap_e_pa"]), rtol=0, atol=1e-12)
+    phase = np.degrees(_FakeFastEar.K * 0.1 * np.log(m["pedicle_e_pa"] / _FakeFastEar.P0))
+    assert np.allclose(y["delta_h_v_deg_1khz"], phase, rtol=0, atol=1e-10)
+    assert np.allclose(y["max_abs_delta_h_v_db_to_10khz"], np.abs(_fake_db(1e4, m["gap_e_pa"])), atol=1e-12)
+    t = transmission_uq(cfg, ev)
+    # the first rows of the α/β draws
+    assert np.array_equal(m["gap_e_pa"][:2_000], sample_moduli(cfg)["gap_e_pa"])
+    k = int(np.count_nonzero(y["max_abs_delta_h_v_db_to_10khz"] > 1.0))
+    assert 0 < k < 20_000 and t["n_abs_delta_h_v_gt_1db"] == k and t["p_abs_delta_h_v_gt_1db"] == k / 20_000
+    p = k / 20_000
+    assert t["p_abs_delta_h_v_gt_1db_se"] == pytest.approx(math.sqrt(p * (1 - p) / 20_000), rel=1e-12)
+    lo, hi = t["p_abs_delta_h_v_gt_1db_ci"]
+    assert lo < p < hi
+    for out, driver in (("delta_h_v_db_1khz", "gap_e_pa"), ("delta_h_v_deg_10khz", "pedicle_e_pa")):
+        ix = t["sobol"][out]
+        assert ix["S1"][driver] == pytest.approx(1, abs=0.05) and ix["ST"][driver] == pytest.approx(
+            1, abs=0.05
+        )
+        for name in set(UNCERTAIN) - {driver}:
+            for key in ("S1", "ST"):
+                assert abs(ix[key][name]) <= ix[f"{key}_conf"][name] + 1e-12, (out, name, key)
+    # percentiles: ln E_gap uniform on [a, b], so the exact p-quantile of ΔH_V at 5 kHz is known
+    d = cfg.distributions["gap_e_pa"]
+    eps = math.sqrt(math.log(2 / 1e-6) / (2 * 20_000))  # P(sup |F_n - F| > eps) < 1e-6
+
+    def exact(prob):
+        return _fake_db(5e3, d.low_pa * (d.high_pa / d.low_pa) ** np.clip(prob, 0, 1))
+
+    for prob, got in t["summary"]["delta_h_v_db_5khz"]["quantiles"].items():
+        assert exact(float(prob) - eps) - 1e-12 <= got <= exact(float(prob) + eps) + 1e-12, prob
+
+
+def test_transmission_refuses_what_the_fast_ear_does_not_hold():
+    from isj.errors import InvalidParameter
+    from isj.studies.uq import TransmissionEvaluator
+
+    ev = TransmissionEvaluator(_FakeFastEar())
+    dists = default_distributions()
+    dists["gap_e_pa"] = Distribution.lognormal(8e6, factor=1.3, name="gap_e_pa")
+    with pytest.raises(InvalidParameter, match="uq.gap_e_pa: lognormal"):
+        ev.check(UQConfig(dists, **SMALL))
+    dists = default_distributions()
+    dists["incus_e_pa"] = Distribution.loguniform(5e9, 20e9, name="incus_e_pa")
+    with pytest.raises(InvalidParameter, match="uq.incus_e_pa"):
+        ev.check(UQConfig(dists, **SMALL))
+    dists = default_distributions()
+    dists["plate_e_pa"] = Distribution.loguniform(1e3, 1e9, name="plate_e_pa")
+    with pytest.raises(InvalidParameter, match="outside the fast ear"):
+        ev.check(UQConfig(dists, **SMALL))
+    for bad in ({"transmission": "yes"}, {"transmission": 1}, {"transmission_samples": 10}):
+        with pytest.raises(ConfigError, match="uq.transmission"):
+            uq_config_from_dict(bad)
+    with pytest.raises(ConfigError, match="power of 2"):
+        uq_config_from_dict({"transmission_sobol_samples": 100})
+
+
+@pytest.fixture()
+def fake_fast_ear(monkeypatch):
+    import isj._cli.uq
+
+    fake = _FakeFastEar()
+    monkeypatch.setattr(isj._cli.uq, "_fast_ear", lambda args: fake)  # no mesh, no build
+    return fake
+
+
+def test_transmission_cli_json_csv_and_switch(fake_fast_ear, capsys, tmp_path):
+    argv = ["uq", "--samples", "2000", "--sobol-samples", "64", "--bootstrap", "10"]
+    targs = ["--transmission-samples", "3000", "--transmission-sobol-samples", "64"]
+    assert main([*argv, "--json"]) == 0
+    off = json.loads(capsys.readouterr().out)
+    assert "transmission" not in off and fake_fast_ear.calls == 0  # off by default
+    assert main([*argv, "--json", "--transmission", *targs]) == 0
+    on = json.loads(capsys.readouterr().out)
+    t = on.pop("transmission")
+    off.pop("time_s"), on.pop("time_s")
+    assert on == off  # the α/β results do not change
+    assert t["samples"] == 3000 and t["sobol_evaluations"] == 64 * 7 and len(t["freq_hz"]) == 62
+    assert set(t["summary"]) == set(t["sobol"]) == set(t["units"])
+    assert set(t["summary"]["delta_h_v_db_1khz"]["quantiles"]) == set(
+        off["summary"]["alpha_rad"]["quantiles"]
+    )
+    # [uq] transmission = true turns it on; --no-transmission wins over the file
+    cfg = tmp_path / "uq.toml"
+    cfg.write_text("[uq]\ntransmission = true\ntransmission_samples = 3000\n")
+    out = tmp_path / "out"
+    assert main([*argv, "--config", str(cfg), "--out", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "P(max |Delta H_V| to 10 kHz > 1 dB)" in text
+    csv = (out / "transmission.csv").read_text().splitlines()
+    assert csv[1] == "kind,output,modulus,probability,value,error"
+    row = next(r for r in csv if r.startswith("probability,"))
+    assert float(row.split(",")[4]) == pytest.approx(t["p_abs_delta_h_v_gt_1db"], rel=1e-8)  # same draws
+    assert "transmission" in json.loads((out / "uq.json").read_text())["results"]
+    calls = fake_fast_ear.calls
+    assert main([*argv, "--config", str(cfg), "--json", "--no-transmission"]) == 0
+    assert "transmission" not in json.loads(capsys.readouterr().out) and fake_fast_ear.calls == calls
+    # a bad switch in the file: one line, exit 2, nothing built
+    cfg.write_text('[uq]\ntransmission = "yes"\n')
+    assert main([*argv, "--config", str(cfg), "--out", str(tmp_path / "new")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "uq.transmission" in err and not (tmp_path / "new").exists()
+    # a lognormal with --transmission: refused before the fast ear is built
+    cfg.write_text('[uq.gap_e_pa]\ndistribution = "lognormal"\nmedian_pa = 1e7\nfactor = 1.3\n')
+    assert main([*argv, "--config", str(cfg), "--transmission"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "uq.gap_e_pa: lognormal" in err and fake_fast_ear.calls == calls
+
+
+@pytest.mark.slow
+def test_transmission_fixed_design_equals_the_fast_ear(coarse_model):
+    """Every draw of one design gives the fast ear's single-design ΔH_V (isj ear sweep's summary,
+    :func:`isj.fem.ear.fast_ear.delta_columns`) at 1, 5, 10 kHz and its largest |ΔH_V| to 10 kHz;
+    and a Monte Carlo draw's outputs equal that design's own single-design values."""
+    from isj.fem.ear.fast_ear import build_fast_ear, fast_ear_sweep
+    from isj.fem.ear.middle_ear import MiddleEarModel
+
+    from isj.design import Materials
+    from isj.studies.uq import TRANSMISSION_FREQ_HZ, TransmissionEvaluator
+
+    ear = build_fast_ear(MiddleEarModel(joint=coarse_model))
+    ev = TransmissionEvaluator(ear, block=7)  # blocks of 7: the blocking does not change a value
+    base = Materials()
+    one = fast_ear_sweep(TRANSMISSION_FREQ_HZ, base, ear=ear)["summary"]
+    moduli = {k: np.full(20, getattr(base, k)) for k in MODULI}
+    y = ev(moduli)
+    single = ear.batch(TRANSMISSION_FREQ_HZ, base)["delta_db"][0]  # the fast ear, one design
+    j = int(np.flatnonzero(TRANSMISSION_FREQ_HZ == 5e3)[0])
+    assert np.all(np.abs(y["delta_h_v_db_5khz"] - single[j]) <= 1e-12)
+    assert np.all(np.abs(y["max_abs_delta_h_v_db_to_10khz"] - np.abs(single).max()) <= 1e-12)
+    for q in ("1", "5", "10"):
+        ref = one["delta_h_v_at_hz"][f"{float(q) * 1000:g}"]
+        assert np.ptp(y[f"delta_h_v_db_{q}khz"]) == 0 and np.ptp(y[f"delta_h_v_deg_{q}khz"]) == 0
+        assert y[f"delta_h_v_db_{q}khz"][0] == pytest.approx(ref["db"], abs=1e-9)
+        assert y[f"delta_h_v_deg_{q}khz"][0] == pytest.approx(ref["deg"], abs=1e-7)
+    assert y["max_abs_delta_h_v_db_to_10khz"][0] == pytest.approx(
+        one["max_abs_delta_h_v_db_to_10khz"], abs=1e-9
+    )
+    cfg = UQConfig.default(**SMALL, seed=2)
+    m = sample_moduli(cfg, 5)
+    y = ev(m)
+    for i in range(5):
+        mats = Materials(**{k: float(m[k][i]) for k in UNCERTAIN})
+        s = fast_ear_sweep(TRANSMISSION_FREQ_HZ, mats, ear=ear)["summary"]
+        assert y["delta_h_v_db_10khz"][i] == pytest.approx(s["delta_h_v_at_hz"]["10000"]["db"], abs=1e-9)
+        assert y["max_abs_delta_h_v_db_to_10khz"][i] == pytest.approx(
+            s["max_abs_delta_h_v_db_to_10khz"], abs=1e-9
+        )
+
+
+def test_report_page_carries_the_transmission_table():
+    """With ΔH_V the page gains one text block (its figures those of the JSON); without it the page is
+    as before (test_report_page)."""
+    from isj.reports.uq import uq_figure
+
+    from isj.studies.uq import TransmissionEvaluator
+
+    cfg = UQConfig.default(**SMALL, transmission_samples=1_000, transmission_sobol_samples=64)
+    r = run_uq(cfg, transmission=TransmissionEvaluator(_FakeFastEar()))
+    fig = uq_figure(r)
+    assert len(fig.axes) == 6
+    text = " ".join(t.get_text() for t in fig.texts)
+    t = r.transmission
+    p, se = t["p_abs_delta_h_v_gt_1db"], t["p_abs_delta_h_v_gt_1db_se"]
+    assert f"> 1 dB) = {p:.4f} +- {se:.4f}" in text
+    assert f"{t['summary']['delta_h_v_db_5khz']['quantiles']['0.5']:+8.3f}" in text
+    fig.canvas.draw()

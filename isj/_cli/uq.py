@@ -9,7 +9,9 @@ from isj.errors import UsageError
 from . import _common as c
 
 #: What ``isj uq --out DIR`` writes; the folder is replaced as a whole.
-UQ_FILES = frozenset({"uq.json", "quantiles.csv", "histograms.csv", "sobol.csv", "uq.png"})
+UQ_FILES = frozenset(
+    {"uq.json", "quantiles.csv", "histograms.csv", "sobol.csv", "uq.png", "transmission.csv"}
+)
 
 
 def _power_of_two(name: str, lo: int, hi: int):
@@ -35,6 +37,8 @@ def register(sub) -> None:
         SAMPLES_RANGE,
         SEED_RANGE,
         SOBOL_SAMPLES_RANGE,
+        TRANSMISSION_SAMPLES_RANGE,
+        TRANSMISSION_SOBOL_SAMPLES_RANGE,
     )
 
     p = sub.add_parser(
@@ -86,13 +90,36 @@ def register(sub) -> None:
         help="also run the Monte Carlo draws inside the surrogate's domain through both models and "
         "report P(beta/alpha > 1) for each and their largest differences",
     )
+    p.add_argument(
+        "--transmission",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="also carry the distributions to Delta H_V (dB, degrees) at 1, 5 and 10 kHz and the "
+        "largest |Delta H_V| below 10 kHz through the fast ear of the default mesh (built here, "
+        "minutes, if not cached; docs/uq.md 11.10); default: [uq] transmission, else off",
+    )
+    p.add_argument(
+        "--transmission-samples",
+        metavar="N",
+        type=c.int_option("--transmission-samples", *TRANSMISSION_SAMPLES_RANGE),
+        help="Monte Carlo draws of Delta H_V (the first of the alpha/beta draws), in "
+        f"[{TRANSMISSION_SAMPLES_RANGE[0]}, {TRANSMISSION_SAMPLES_RANGE[1]}] (default 20000)",
+    )
+    p.add_argument(
+        "--transmission-sobol-samples",
+        metavar="N",
+        type=_power_of_two("--transmission-sobol-samples", *TRANSMISSION_SOBOL_SAMPLES_RANGE),
+        help="Saltelli base samples of Delta H_V, a power of 2 in "
+        f"[{TRANSMISSION_SOBOL_SAMPLES_RANGE[0]}, {TRANSMISSION_SOBOL_SAMPLES_RANGE[1]}] (default 1024)",
+    )
     c.pressure_option(p)
     c.add_calibration_option(p)
     p.add_argument(
         "--out",
         metavar="DIR",
-        help="also write uq.json, quantiles.csv, histograms.csv, sobol.csv and uq.png here (a new or "
-        "empty folder, or one isj uq wrote; replaced as a whole)",
+        help="also write uq.json, quantiles.csv, histograms.csv, sobol.csv and uq.png here (and "
+        "transmission.csv with --transmission; a new or empty folder, or one isj uq wrote; replaced "
+        "as a whole)",
     )
     c.add_json_option(p)
     p.set_defaults(func=uq)
@@ -135,6 +162,39 @@ def write_outputs(folder, args, result, summary: dict | None = None) -> None:
     write_run_record(folder / "uq.json", args, {**summary, "histograms": result.histogram_dict()})
     fig = uq_figure(result)
     fig.savefig(folder / "uq.png", dpi=110)
+    if result.transmission is not None:
+        atomic_write_text(folder / "transmission.csv", transmission_csv(result.transmission))
+
+
+def transmission_csv(t: dict) -> str:
+    """``transmission.csv``: per ΔH_V output its quantiles, mean and std, then P(|ΔH_V| > 1 dB)
+    with its standard error, then the Sobol' indices (one table, ``kind`` column)."""
+    from isj.studies.uq import QUANTILES
+
+    head = (
+        f"# Delta H_V = H_V / H_V(rigid connection) through the fast ear; {t['samples']} draws; "
+        f"grid {len(t['freq_hz'])} frequencies {t['freq_hz'][0]:g}..{t['freq_hz'][-1]:g} Hz; units: "
+        + ", ".join(f"{k} {u}" for k, u in t["units"].items())
+        + "\n"
+    )
+    rows = []
+    for k, s in t["summary"].items():
+        rows += [["quantile", k, "", f"{q:g}", f"{s['quantiles'][f'{q:g}']:.9g}", ""] for q in QUANTILES]
+        rows += [["mean", k, "", "", f"{s['mean']:.9g}", ""], ["std", k, "", "", f"{s['std']:.9g}", ""]]
+    rows.append(
+        [
+            "probability",
+            "max_abs_delta_h_v_db_to_10khz",
+            "",
+            f"> {t['threshold_db']:g} dB",
+            f"{t['p_abs_delta_h_v_gt_1db']:.9g}",
+            f"{t['p_abs_delta_h_v_gt_1db_se']:.3g}",
+        ]
+    )
+    for k, ix in t["sobol"].items():
+        for key in ("S1", "ST"):
+            rows += [[key, k, m, "", f"{ix[key][m]:.6g}", f"{ix[key + '_conf'][m]:.3g}"] for m in ix[key]]
+    return head + _csv("kind,output,modulus,probability,value,error", rows)
 
 
 def surrogate_evaluator(rom, pressure_pa: float):
@@ -148,6 +208,14 @@ def surrogate_evaluator(rom, pressure_pa: float):
 
     evaluate.name = "surrogate"
     return evaluate
+
+
+class _FixedSpace:
+    """A stand-in holding only a design space: lets :meth:`TransmissionEvaluator.check` refuse
+    distributions before the fast ear is built."""
+
+    def __init__(self, space):
+        self.space = space
 
 
 def _support(space) -> dict[str, tuple[float, float]]:
@@ -197,6 +265,19 @@ def _surrogate(args):
     return reduced_model(progress=progress)
 
 
+def _fast_ear(args):
+    """The fast ear of the default mesh (P2, resolution 1, default drum): cached, else built."""
+    import sys
+
+    from isj.fem.ear import fast_ear as fe
+    from isj.fem.ear.middle_ear import MiddleEarModel
+    from isj.fem.model import PedicleJointModel
+
+    if not args.json:
+        print("  the fast ear of the default mesh (built once, minutes, then cached)", file=sys.stderr)
+    return fe.fast_ear(MiddleEarModel(joint=PedicleJointModel(order=2, resolution=1.0)))
+
+
 def uq(args) -> int:
     from isj.lumped.api import LumpedModel
     from isj.studies.uq import UQConfig, load_uq_config, lumped_evaluator, run_uq
@@ -210,6 +291,8 @@ def uq(args) -> int:
         "sobol_samples": args.sobol_samples,
         "bootstrap": args.bootstrap,
         "seed": args.seed,
+        "transmission_samples": args.transmission_samples,
+        "transmission_sobol_samples": args.transmission_sobol_samples,
     }
     if args.config is not None:
         config = load_uq_config(args.config, cal.domain, **counts)
@@ -226,7 +309,18 @@ def uq(args) -> int:
         c.check_caches(args, "mesh", "rom")
         rom = _surrogate(args)
     evaluator = surrogate_evaluator(rom, args.pressure) if args.evaluator == "surrogate" else lumped
-    result = run_uq(config, evaluator, pressure_pa=args.pressure, domain=cal.domain)
+    transmission = None
+    if args.transmission if args.transmission is not None else bool(config.transmission):
+        from isj.design_space import DesignSpace
+        from isj.studies.uq import TransmissionEvaluator
+
+        TransmissionEvaluator(_FixedSpace(DesignSpace())).check(config)  # refused before the build
+        c.check_model_size(None, 2, 1.0)
+        c.check_caches(args, "mesh", "fe")
+        transmission = TransmissionEvaluator(_fast_ear(args))
+    result = run_uq(
+        config, evaluator, pressure_pa=args.pressure, domain=cal.domain, transmission=transmission
+    )
     summary = result.to_dict()
     if args.compare_surrogate:
         from isj.studies.uq import compare_evaluators
@@ -270,6 +364,20 @@ def uq(args) -> int:
     if result.n_outside_domain:
         frac = result.n_outside_domain / config.samples
         print(f"  {result.n_outside_domain} draws ({100 * frac:.2f} %) outside the calibrated domain")
+    tr = summary.get("transmission")
+    if tr is not None:
+        se = tr["p_abs_delta_h_v_gt_1db_se"]
+        print(
+            f"Delta H_V (fast ear, {tr['samples']} draws, {tr['time_s']['total']:.1f} s): "
+            f"P(max |Delta H_V| to 10 kHz > 1 dB) = {tr['p_abs_delta_h_v_gt_1db']:.4f} +- {se:.4f} (s.e.)"
+        )
+        for k, s in tr["summary"].items():
+            q, unit = s["quantiles"], tr["units"][k]
+            top = sorted(tr["sobol"][k]["ST"].items(), key=lambda kv: -kv[1])[:2]
+            print(
+                f"  {k:30} median {q['0.5']:+.3f} {unit}, 2.5-97.5 % {q['0.025']:+.3f} .. {q['0.975']:+.3f}; "
+                "ST " + ", ".join(f"{m.removesuffix('_e_pa')} {v:.2f}" for m, v in top)
+            )
     cmp = summary.get("surrogate_comparison")
     if cmp and cmp["n"]:
         (a, b), (x, y) = (

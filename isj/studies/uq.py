@@ -12,7 +12,10 @@ fixed. :func:`run_uq` then
 - gives P(β/α > 1) with a Wilson score interval, quantiles and histograms of the outputs, and
 - Sobol' first-order and total indices with bootstrap intervals from SALib (Saltelli's scheme,
   ``SALib.sample.sobol`` / ``SALib.analyze.sobol``), on the unit cube mapped through each
-  distribution's inverse CDF: uniform in log E for log-uniform inputs.
+  distribution's inverse CDF: uniform in log E for log-uniform inputs;
+- optionally (``transmission=``, a :class:`TransmissionEvaluator` around the fast ear) the same
+  for ΔH_V = H_V / H_V,rigid at 1, 5 and 10 kHz and its largest magnitude below 10 kHz, with
+  P(|ΔH_V| > 1 dB) (:func:`transmission_uq`, docs/uq.md §11.10).
 
 >>> cfg = UQConfig.default(samples=10_000, sobol_samples=256, bootstrap=50)
 >>> r = run_uq(cfg)
@@ -29,6 +32,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from isj.design import DEFAULT_PRESSURE_PA
+from isj.design_space import inside
 from isj.errors import InvalidParameter
 from isj.lumped.model import MODULI
 
@@ -59,9 +63,13 @@ __all__ = [
     "SAMPLES_RANGE",
     "SEED_RANGE",
     "SOBOL_SAMPLES_RANGE",
+    "TRANSMISSION_FREQ_HZ",
+    "TRANSMISSION_OUTPUTS",
+    "TRANSMISSION_UNITS",
     "UNITS",
     "Distribution",
     "Evaluator",
+    "TransmissionEvaluator",
     "UQConfig",
     "UQResult",
     "compare_evaluators",
@@ -74,6 +82,7 @@ __all__ = [
     "sample_moduli",
     "sobol_indices",
     "summarise",
+    "transmission_uq",
     "uq_config_from_dict",
 ]
 
@@ -165,12 +174,16 @@ def sobol_indices(
     evaluator: Evaluator,
     outputs=("alpha_rad", "beta_rad", "beta_over_alpha"),
     confidence: float = CONFIDENCE,
+    sobol_samples: int | None = None,
+    evaluate=None,
 ) -> dict:
     """Sobol' first-order and total indices with bootstrap half-widths, by SALib.
 
     Saltelli's scheme (``SALib.sample.sobol.sample``, scrambled, seeded, no second order) on the
     unit cube of the uncertain moduli, mapped through each :meth:`Distribution.ppf`;
     ``SALib.analyze.sobol.analyze`` with ``config.bootstrap`` resamples at ``confidence``.
+    ``sobol_samples`` (default ``config.sobol_samples``) is the base sample count N;
+    ``evaluate(evaluator, moduli)`` → output name → array (default :func:`evaluate_outputs`).
 
     Returns
     -------
@@ -182,11 +195,12 @@ def sobol_indices(
 
     names = list(config.uncertain)
     problem = {"num_vars": len(names), "names": names, "bounds": [[0.0, 1.0]] * len(names)}
-    u = sample.sample(problem, config.sobol_samples, calc_second_order=False, scramble=True, seed=config.seed)
+    base = config.sobol_samples if sobol_samples is None else sobol_samples
+    u = sample.sample(problem, base, calc_second_order=False, scramble=True, seed=config.seed)
     n = u.shape[0]
     cols = dict(zip(names, u.T, strict=True))
     moduli = {k: config.distributions[k].ppf(cols.get(k, np.zeros(n))) for k in MODULI}
-    y = evaluate_outputs(evaluator, moduli)
+    y = (evaluate or evaluate_outputs)(evaluator, moduli)
     out = {}
     for k in outputs:
         if np.ptp(y[k]) == 0:  # a constant output depends on no modulus: every index 0
@@ -226,6 +240,7 @@ class UQResult:
     time_s: dict
     confidence: float = CONFIDENCE
     outputs: dict = field(default_factory=dict, repr=False)  # the Monte Carlo arrays
+    transmission: dict | None = None  # :func:`transmission_uq`, when asked for
 
     def top_total(self, output: str, k: int = 3) -> list[tuple[str, float]]:
         """The ``k`` largest total indices of ``output``, (modulus, ST), largest first."""
@@ -257,7 +272,7 @@ class UQResult:
             "summary": self.summary,
             "sobol": self.sobol,
             "time_s": self.time_s,
-        }
+        } | ({} if self.transmission is None else {"transmission": self.transmission})
 
 
 def run_uq(
@@ -267,8 +282,9 @@ def run_uq(
     pressure_pa: float = DEFAULT_PRESSURE_PA,
     domain=None,
     confidence: float = CONFIDENCE,
+    transmission: TransmissionEvaluator | None = None,
 ) -> UQResult:
-    """Monte Carlo, P(β/α > 1) and Sobol' indices of α, β, α + β and β/α.
+    """Monte Carlo, P(β/α > 1) and Sobol' indices of α, β, α + β and β/α (and of ΔH_V).
 
     Parameters
     ----------
@@ -278,6 +294,9 @@ def run_uq(
     domain : modulus → (low, high) Pa, for counting draws outside it (default: the shipped
         calibration's when the evaluator is the default)
     confidence : of every interval
+    transmission : a :class:`TransmissionEvaluator` (the fast ear): also ΔH_V under the same
+        distributions (:func:`transmission_uq`, in ``UQResult.transmission``); the α/β results
+        do not change
     """
     t0 = time.perf_counter()
     config = config or UQConfig.default()
@@ -293,7 +312,7 @@ def run_uq(
     if domain is not None:
         mask = np.zeros(config.samples, dtype=bool)
         for k, (lo, hi) in domain.items():
-            mask |= (moduli[k] < lo * (1 - 1e-9)) | (moduli[k] > hi * (1 + 1e-9))
+            mask |= ~inside(moduli[k], lo, hi)
         outside = int(mask.sum())
     del moduli
     k = int(np.count_nonzero(y["beta_over_alpha"] > 1))
@@ -301,6 +320,12 @@ def run_uq(
     t1 = time.perf_counter()
     sobol = sobol_indices(config, evaluator, confidence=confidence)
     t2 = time.perf_counter()
+    times = {"monte_carlo": t1 - t0, "sobol": t2 - t1}
+    trans = None
+    if transmission is not None:
+        trans = transmission_uq(config, transmission, confidence)
+        times["transmission"] = trans["time_s"]["total"]
+    times["total"] = time.perf_counter() - t0
     return UQResult(
         config,
         k / config.samples,
@@ -312,10 +337,148 @@ def run_uq(
         getattr(evaluator, "name", getattr(evaluator, "__name__", "custom")),
         float(pressure_pa),
         outside,
-        {"monte_carlo": t1 - t0, "sobol": t2 - t1, "total": t2 - t0},
+        times,
         confidence,
         y,
+        trans,
     )
+
+
+# ---- ΔH_V under the moduli's uncertainty (the fast ear, docs/uq.md §11.10) -------------------------
+
+#: The frequency grid of the ΔH_V outputs (Hz): 60 log-spaced points 100 Hz–10 kHz and the
+#: quoted frequencies 1, 5 and 10 kHz, sorted.
+TRANSMISSION_QUOTE_HZ = (1000.0, 5000.0, 10000.0)
+TRANSMISSION_FREQ_HZ = np.unique(np.concatenate([np.geomspace(100.0, 10e3, 60), TRANSMISSION_QUOTE_HZ]))
+#: ΔH_V outputs: dB and degrees at each quoted frequency, and the largest |ΔH_V| (dB) on the grid.
+TRANSMISSION_OUTPUTS = (
+    *(f"delta_h_v_{u}_{q / 1000:g}khz" for q in TRANSMISSION_QUOTE_HZ for u in ("db", "deg")),
+    "max_abs_delta_h_v_db_to_10khz",
+)
+TRANSMISSION_UNITS = {k: ("deg" if "_deg_" in k else "dB") for k in TRANSMISSION_OUTPUTS}
+#: The threshold of P(|ΔH_V| > 1 dB) (dB), on the largest |ΔH_V| below 10 kHz.
+DELTA_H_V_THRESHOLD_DB = 1.0
+
+
+class TransmissionEvaluator:
+    """Moduli (Pa) → the ΔH_V outputs (:data:`TRANSMISSION_OUTPUTS`) through a fast ear.
+
+    Parameters
+    ----------
+    ear : :class:`isj.fem.ear.fast_ear.FastEar`; every draw must lie in its calibrated domain
+        (``ear.space``) and the incus must be fixed at ``ear.space.incus_e_pa``
+    damping : :class:`isj.damping.Damping`, a preset name or None (published)
+    cavities : "open" or "intact", or None (the fast ear's default)
+    freq_hz : the grid (default :data:`TRANSMISSION_FREQ_HZ`); must hold the quoted frequencies
+    block : designs per call of ``ear.batch`` (memory)
+    """
+
+    name = "fast_ear"
+
+    def __init__(self, ear, damping=None, cavities=None, freq_hz=None, block: int = 4096):
+        self.ear, self.damping, self.cavities, self.block = ear, damping, cavities, int(block)
+        self.freq_hz = TRANSMISSION_FREQ_HZ if freq_hz is None else np.asarray(freq_hz, dtype=float)
+        self._quote = [int(np.flatnonzero(self.freq_hz == q)[0]) for q in TRANSMISSION_QUOTE_HZ]
+        self._low = self.freq_hz <= 10e3
+
+    def check(self, config: UQConfig) -> None:
+        """Refuse, before any draw, distributions the fast ear does not hold: an uncertain incus, an
+        incus other than the fast ear's, or a range (lognormal: unbounded) outside its domain."""
+        from isj.design_space import RANGED
+
+        space = self.ear.space
+        d = config.distributions["incus_e_pa"]
+        if d.kind != "fixed" or not np.isclose(d.value_pa, space.incus_e_pa, rtol=1e-12, atol=0):
+            raise InvalidParameter(
+                f"uq.incus_e_pa: the transmission (fast ear) needs it fixed at {space.incus_e_pa:g} Pa"
+            )
+        for k in RANGED:
+            d, (lo, hi) = config.distributions[k], getattr(space, k)
+            if d.kind == "lognormal":
+                raise InvalidParameter(
+                    f"uq.{k}: lognormal (unbounded); the transmission (fast ear) holds on "
+                    f"[{lo:g}, {hi:g}] Pa only"
+                )
+            a, b = (d.low_pa, d.high_pa) if d.kind == "loguniform" else (d.value_pa, d.value_pa)
+            if not (inside(a, lo, hi) and inside(b, lo, hi)):
+                raise InvalidParameter(
+                    f"uq.{k}: spans {a:g}..{b:g} Pa, outside the fast ear's [{lo:g}, {hi:g}] Pa"
+                )
+
+    def __call__(self, moduli: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+        from isj.design_space import RANGED
+
+        designs = np.column_stack([np.asarray(moduli[k], dtype=float) for k in RANGED])
+        kw = {} if self.cavities is None else {"cavities": self.cavities}
+        db = np.empty((designs.shape[0], self.freq_hz.size))
+        deg = np.empty_like(db)
+        for i in range(0, designs.shape[0], self.block):
+            r = self.ear.batch(self.freq_hz, designs[i : i + self.block], self.damping, **kw)
+            db[i : i + self.block] = r["delta_db"]
+            deg[i : i + self.block] = np.degrees(np.unwrap(np.angle(r["delta_h_v"]), axis=1))
+        out = {}
+        for q, j in zip(TRANSMISSION_QUOTE_HZ, self._quote, strict=True):
+            out[f"delta_h_v_db_{q / 1000:g}khz"] = db[:, j]
+            out[f"delta_h_v_deg_{q / 1000:g}khz"] = deg[:, j]
+        out["max_abs_delta_h_v_db_to_10khz"] = np.abs(db[:, self._low]).max(axis=1)
+        bad = ~np.all([np.isfinite(v) for v in out.values()], axis=0)
+        if bad.any():
+            raise InvalidParameter(f"fast ear: ΔH_V not finite at design {int(np.argmax(bad))}")
+        return out
+
+
+def transmission_uq(
+    config: UQConfig, evaluator: TransmissionEvaluator, confidence: float = CONFIDENCE
+) -> dict:
+    """ΔH_V under the moduli's distributions: percentiles, P(|ΔH_V| > 1 dB), Sobol' indices.
+
+    The Monte Carlo takes the first ``config.transmission_samples`` draws of :func:`sample_moduli`
+    (the same seed: the first rows of the α/β draws); the Sobol' indices reuse
+    :func:`sobol_indices` with ``config.transmission_sobol_samples`` base samples.
+
+    Returns
+    -------
+    dict (JSON-able): ``freq_hz`` (the grid), ``quote_hz``, ``units``, ``samples``,
+    ``sobol_samples``, ``sobol_evaluations``, ``summary`` (per output as
+    :func:`summarise`: the same :data:`QUANTILES`), ``p_abs_delta_h_v_gt_1db`` with its Monte
+    Carlo standard error ``p_abs_delta_h_v_gt_1db_se`` = √(p(1 − p)/n) and Wilson interval,
+    ``n_abs_delta_h_v_gt_1db``, ``sobol`` (output → S1, S1_conf, ST, ST_conf → modulus) and
+    ``time_s``
+    """
+    t0 = time.perf_counter()
+    evaluator.check(config)
+    n = config.transmission_samples
+    y = evaluator(sample_moduli(config, n))
+    summary, _ = summarise(y)
+    k = int(np.count_nonzero(y["max_abs_delta_h_v_db_to_10khz"] > DELTA_H_V_THRESHOLD_DB))
+    p = k / n
+    t1 = time.perf_counter()
+    sobol = sobol_indices(
+        config,
+        evaluator,
+        outputs=TRANSMISSION_OUTPUTS,
+        confidence=confidence,
+        sobol_samples=config.transmission_sobol_samples,
+        evaluate=lambda ev, m: ev(m),
+    )
+    t2 = time.perf_counter()
+    return {
+        "evaluator": evaluator.name,
+        "freq_hz": [float(f) for f in evaluator.freq_hz],
+        "quote_hz": list(TRANSMISSION_QUOTE_HZ),
+        "units": dict(TRANSMISSION_UNITS),
+        "samples": n,
+        "sobol_samples": config.transmission_sobol_samples,
+        "sobol_evaluations": config.transmission_sobol_samples * (len(config.uncertain) + 2),
+        "threshold_db": DELTA_H_V_THRESHOLD_DB,
+        "p_abs_delta_h_v_gt_1db": p,
+        "p_abs_delta_h_v_gt_1db_se": float(np.sqrt(p * (1 - p) / n)),
+        "p_abs_delta_h_v_gt_1db_ci": list(probability_interval(k, n, confidence)),
+        "n_abs_delta_h_v_gt_1db": k,
+        "summary": summary,
+        "sobol": sobol,
+        "time_s": {"monte_carlo": t1 - t0, "sobol": t2 - t1, "total": t2 - t0},
+    }
 
 
 def compare_evaluators(

@@ -28,6 +28,12 @@ KINDS = ("loguniform", "lognormal", "fixed")
 DEFAULT_SAMPLES = 1_000_000
 DEFAULT_SOBOL_SAMPLES = 2**14
 DEFAULT_BOOTSTRAP = 100
+#: ΔH_V through the fast ear (docs/uq.md §11.10): its Monte Carlo draws (the first of the α/β
+#: draws) and Saltelli base samples, and their ranges.
+DEFAULT_TRANSMISSION_SAMPLES = 20_000
+DEFAULT_TRANSMISSION_SOBOL_SAMPLES = 2**10
+TRANSMISSION_SAMPLES_RANGE = (100, 1_000_000)
+TRANSMISSION_SOBOL_SAMPLES_RANGE = (2**6, 2**14)
 #: Ranges of the counts: [lo, hi] (Sobol' base samples: also a power of 2).
 SAMPLES_RANGE = (1_000, 10_000_000)
 SOBOL_SAMPLES_RANGE = (2**6, 2**18)
@@ -188,6 +194,11 @@ class UQConfig:
         (N (d + 2) model runs for d uncertain moduli)
     bootstrap : bootstrap resamples of the Sobol' indices, in :data:`BOOTSTRAP_RANGE`
     seed : of the Monte Carlo draws, the scrambled Sobol' points and the bootstrap
+    transmission : also ΔH_V through the fast ear (docs/uq.md §11.10); None: the command's default
+    transmission_samples : its Monte Carlo draws (the first of the α/β draws), in
+        :data:`TRANSMISSION_SAMPLES_RANGE`
+    transmission_sobol_samples : its Saltelli base samples, a power of 2 in
+        :data:`TRANSMISSION_SOBOL_SAMPLES_RANGE`
     """
 
     distributions: dict[str, Distribution]
@@ -195,6 +206,9 @@ class UQConfig:
     sobol_samples: int = DEFAULT_SOBOL_SAMPLES
     bootstrap: int = DEFAULT_BOOTSTRAP
     seed: int = 0
+    transmission: bool | None = None
+    transmission_samples: int = DEFAULT_TRANSMISSION_SAMPLES
+    transmission_sobol_samples: int = DEFAULT_TRANSMISSION_SOBOL_SAMPLES
 
     def __post_init__(self):
         if set(self.distributions) != set(MODULI):
@@ -210,6 +224,15 @@ class UQConfig:
                 "(memory of SALib's bootstrap); lower --sobol-samples or --bootstrap"
             )
         _count("uq.seed", self.seed, *SEED_RANGE)
+        if self.transmission is not None and not isinstance(self.transmission, bool):
+            raise ConfigError(f"uq.transmission = {self.transmission!r}: must be true or false")
+        check_count("transmission_samples", self.transmission_samples)
+        t = check_count("transmission_sobol_samples", self.transmission_sobol_samples)
+        if t * self.bootstrap > MAX_BOOTSTRAP_DRAWS:
+            raise ConfigError(
+                f"uq.transmission_sobol_samples x uq.bootstrap = {t} x {self.bootstrap}: must be <= "
+                f"{MAX_BOOTSTRAP_DRAWS} (memory of SALib's bootstrap)"
+            )
         if not self.uncertain:
             raise ConfigError("uq: every modulus is fixed; at least one must have a distribution")
 
@@ -251,7 +274,14 @@ def default_distributions(domain: Mapping[str, tuple[float, float]] | None = Non
     return out
 
 
-_CONFIG_KEYS = ("samples", "sobol_samples", "bootstrap", "seed")
+_CONFIG_KEYS = (
+    "samples",
+    "sobol_samples",
+    "bootstrap",
+    "seed",
+    "transmission_samples",
+    "transmission_sobol_samples",
+)
 
 
 def uq_config_from_dict(section: Mapping, domain=None, **overrides) -> UQConfig:
@@ -268,10 +298,16 @@ def uq_config_from_dict(section: Mapping, domain=None, **overrides) -> UQConfig:
     for key, value in section.items():
         if key in MODULI:
             dists[key] = Distribution.from_table(key, value)
+        elif key == "transmission":
+            if not isinstance(value, bool):
+                raise ConfigError(f"uq.transmission = {value!r}: must be true or false")
+            counts[key] = value
         elif key in _CONFIG_KEYS:
             counts[key] = check_count(key, value)
         else:
-            raise ConfigError(f"uq.{key}: unknown key; valid: {', '.join((*_CONFIG_KEYS, *MODULI))}")
+            raise ConfigError(
+                f"uq.{key}: unknown key; valid: {', '.join((*_CONFIG_KEYS, 'transmission', *MODULI))}"
+            )
     counts.update({k: v for k, v in overrides.items() if v is not None})
     return UQConfig(dists, **counts)
 
@@ -285,10 +321,13 @@ def check_count(key: str, value) -> int:
         "sobol_samples": SOBOL_SAMPLES_RANGE,
         "bootstrap": BOOTSTRAP_RANGE,
         "seed": SEED_RANGE,
+        "transmission_samples": TRANSMISSION_SAMPLES_RANGE,
+        "transmission_sobol_samples": TRANSMISSION_SOBOL_SAMPLES_RANGE,
     }
     v = _count(f"uq.{key}", value, *ranges[key])
-    if key == "sobol_samples" and v & (v - 1):
-        raise ConfigError(f"uq.sobol_samples = {v}: must be a power of 2 (Sobol' balance), e.g. {2**14}")
+    if key in ("sobol_samples", "transmission_sobol_samples") and v & (v - 1):
+        example = 2**14 if key == "sobol_samples" else 2**10
+        raise ConfigError(f"uq.{key} = {v}: must be a power of 2 (Sobol' balance), e.g. {example}")
     return v
 
 
