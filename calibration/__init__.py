@@ -7,13 +7,10 @@ or Dask, caching every record on disk. The FE evaluator itself
 imports ``fem`` or gmsh.
 """
 
-from .doe import DesignSpace, corners, grid, sample
-from .runner import CorruptCacheEntry, EvaluationError, ResultCache, design_key, run_designs
+from .doe import corners, grid, sample
+from .runner import ResultCache, design_key, run_designs
 
 __all__ = [
-    "CorruptCacheEntry",
-    "DesignSpace",
-    "EvaluationError",
     "ResultCache",
     "corners",
     "design_key",

@@ -1,11 +1,11 @@
 """Design of experiments over the calibration space of docs/lumped.md §3.5 (moduli in Pa).
 
 The moduli span one to two decades each, so every design is drawn uniformly in
-log E: a design space is the box of log-moduli, and the unit cube of
-``scipy.stats.qmc`` maps onto it by u ↦ exp(log lo + u (log hi − log lo)).
-The incus modulus is not a design variable (it stays at
-``isj.design.Materials()``'s default, 12 GPa): it is far stiffer than
-everything it is loaded through.
+log E over a :class:`isj.design_space.DesignSpace`: the unit cube of
+``scipy.stats.qmc`` maps onto it by u ↦ exp(log lo + u (log hi − log lo))
+(:meth:`~isj.design_space.DesignSpace.columns_from_unit`). The incus modulus is not
+a design variable (it stays at ``isj.design.Materials()``'s default, 12 GPa): it is
+far stiffer than everything it is loaded through.
 
 >>> space = DesignSpace()
 >>> designs = sample(space, 64, seed=1)              # list of {"pedicle_e_pa": ..., ...}
@@ -15,140 +15,17 @@ True
 
 from __future__ import annotations
 
-import dataclasses
 import inspect
 import itertools
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from dataclasses import dataclass, fields
 
 import numpy as np
 from isj.lumped.artifact import GEOMETRY_CLEARANCE_M as _CLEARANCE_M
 
+from isj.design_space import Bounds, DesignSpace, inside
 from isj.errors import InvalidParameter
-
-Bounds = tuple[float, float]
-
-
-@dataclass(frozen=True)
-class DesignSpace:
-    """Box of Young's moduli (Pa), sampled log-uniformly (docs/lumped.md §3.5–3.6).
-
-    Each field is ``(low, high)`` in Pa, with 0 < low ≤ high; ``low == high``
-    pins a modulus. Defaults: the plausible ranges of docs/lumped.md §3.5 (thesis
-    §6.2.3–6.2.5).
-
-    Parameters
-    ----------
-    pedicle_e_pa : bone, 1–27 GPa
-    gap_e_pa : joint cartilage, 1–50 MPa
-    capsule_e_pa : ligament, 10–300 MPa
-    plate_e_pa : lenticular plate, 0.3–5 GPa
-    stapes_e_pa : head of the stapes, 0.3–5 GPa
-    """
-
-    pedicle_e_pa: Bounds = (1e9, 27e9)
-    gap_e_pa: Bounds = (1e6, 50e6)
-    capsule_e_pa: Bounds = (10e6, 300e6)
-    plate_e_pa: Bounds = (0.3e9, 5e9)
-    stapes_e_pa: Bounds = (0.3e9, 5e9)
-
-    def __post_init__(self) -> None:
-        for name in self.names:
-            value = getattr(self, name)
-            try:
-                lo, hi = (float(v) for v in value)
-            except (TypeError, ValueError):
-                raise InvalidParameter(f"{name} = {value!r}: must be a pair (low, high) in Pa") from None
-            if not (math.isfinite(lo) and math.isfinite(hi) and 0 < lo <= hi):
-                raise InvalidParameter(f"{name} = {value!r} Pa: must satisfy 0 < low <= high, both finite")
-            # lists (from JSON) become tuples so that the space stays hashable
-            object.__setattr__(self, name, (lo, hi))
-
-    @property
-    def names(self) -> tuple[str, ...]:
-        """Modulus names, in the column order used by every array method."""
-        return tuple(f.name for f in fields(self))
-
-    @property
-    def lower(self) -> np.ndarray:
-        """Lower bounds (Pa), shape (d,)."""
-        return np.array([getattr(self, n)[0] for n in self.names])
-
-    @property
-    def upper(self) -> np.ndarray:
-        """Upper bounds (Pa), shape (d,)."""
-        return np.array([getattr(self, n)[1] for n in self.names])
-
-    def mid(self) -> dict[str, float]:
-        """Geometric mid-point √(low · high) of every modulus (Pa)."""
-        return {n: float(math.sqrt(lo * hi)) for n, (lo, hi) in zip(self.names, self._pairs(), strict=True)}
-
-    def _pairs(self) -> list[Bounds]:
-        return [getattr(self, n) for n in self.names]
-
-    def from_unit(self, u: np.ndarray) -> list[dict[str, float]]:
-        """Designs (Pa) from points of the unit cube, log-uniform map; ``u`` shape (n, d)."""
-        cols = self.columns_from_unit(u)
-        e = np.column_stack([cols[n] for n in self.names])
-        return [dict(zip(self.names, map(float, row), strict=True)) for row in e]
-
-    def columns_from_unit(self, u: np.ndarray) -> dict[str, np.ndarray]:
-        """:meth:`from_unit` as one array (Pa) per modulus, shape (n,) each: for millions of designs."""
-        u = np.atleast_2d(np.asarray(u, dtype=float))
-        if u.shape[1] != len(self.names):
-            raise ValueError(f"u has {u.shape[1]} columns, the space has {len(self.names)} moduli")
-        log_lo, log_hi = np.log(self.lower), np.log(self.upper)
-        out = {}
-        for j, name in enumerate(self.names):
-            # column by column: a few arrays of n at a time, not of (n, d); clip, since
-            # exp(log(lo)) may miss lo by an ulp and designs must lie inside the box
-            e = np.exp(log_lo[j] + u[:, j] * (log_hi[j] - log_lo[j]))
-            out[name] = np.clip(e, self.lower[j], self.upper[j])
-        return out
-
-    def to_unit(self, designs: Mapping | Sequence[Mapping]) -> np.ndarray:
-        """Log-scaled coordinates in [0, 1] (0 for a pinned modulus), shape (n, d)."""
-        e = self._matrix(designs)
-        log_lo, log_hi = np.log(self.lower), np.log(self.upper)
-        span = np.where(log_hi > log_lo, log_hi - log_lo, 1.0)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            return (np.log(e) - log_lo) / span
-
-    def _matrix(self, designs: Mapping | Sequence[Mapping]) -> np.ndarray:
-        if isinstance(designs, Mapping):
-            designs = [designs]
-        rows = [[float(d.get(n, np.nan)) for n in self.names] for d in designs]
-        return np.array(rows, dtype=float).reshape(len(rows), len(self.names))
-
-    def contains(self, designs: Mapping | Sequence[Mapping], rtol: float = 1e-9) -> np.ndarray:
-        """Which designs lie inside the box, shape (n,) of bool.
-
-        A design must give every modulus of the space (extra keys are ignored);
-        each must be finite and within ``[low (1 − rtol), high (1 + rtol)]``, the
-        tolerance absorbing rounding in the log-uniform map and in JSON round trips.
-        """
-        e = self._matrix(designs)
-        with np.errstate(invalid="ignore"):
-            inside = (e >= self.lower * (1 - rtol)) & (e <= self.upper * (1 + rtol))
-        return np.all(inside & np.isfinite(e), axis=1)
-
-    def to_dict(self) -> dict[str, list[float]]:
-        """JSON-able form ``{name: [low_pa, high_pa]}``."""
-        return {n: list(getattr(self, n)) for n in self.names}
-
-    @classmethod
-    def from_dict(cls, data: Mapping) -> DesignSpace:
-        """Inverse of :meth:`to_dict`; a missing modulus takes its default bounds."""
-        unknown = set(data) - {f.name for f in fields(cls)}
-        if unknown:
-            valid = list(cls().names)
-            raise InvalidParameter(f"unknown design-space moduli {sorted(unknown)}; valid: {valid}")
-        return cls(**{k: tuple(v) for k, v in data.items()})
-
-    def replace(self, **changes: Bounds) -> DesignSpace:
-        return dataclasses.replace(self, **changes)
-
 
 #: Sampling methods understood by :func:`sample`.
 METHODS = ("sobol", "lhs")
@@ -186,12 +63,12 @@ def sample(space: DesignSpace, n: int, seed: int, method: str = "sobol") -> list
         raise ValueError(f"n = {n!r}: must be an integer >= 1")
     if method not in METHODS:
         raise ValueError(f"method = {method!r}: must be one of {METHODS}")
-    return space.from_unit(_engine(method, len(space.names), seed).random(int(n)))
+    return space.designs_from_unit(_engine(method, len(space.names), seed).random(int(n)))
 
 
 def corners(space: DesignSpace) -> list[dict[str, float]]:
     """The 2^d corners of the box (Pa), lowest first (last modulus varies fastest)."""
-    return [dict(zip(space.names, c, strict=True)) for c in itertools.product(*space._pairs())]
+    return [dict(zip(space.names, c, strict=True)) for c in itertools.product(*space.bounds.values())]
 
 
 def grid(space: DesignSpace, name: str, n: int) -> list[dict[str, float]]:
@@ -300,11 +177,11 @@ class GeometrySpace:
         x = np.clip(lo + u * (hi - lo), lo, hi)
         return [dict(zip(self.names, map(float, row), strict=True)) for row in x]
 
-    def contains(self, dims: Mapping[str, float], rtol: float = 1e-9) -> bool:
-        """Whether every named dimension lies in its bounds (within ``rtol``) and the point is valid."""
+    def contains(self, dims: Mapping[str, float]) -> bool:
+        """Whether every named dimension lies in its bounds (:func:`isj.design_space.inside`) and is valid."""
         for n, (lo, hi) in self.bounds:
             v = float(dims.get(n, dict(self.base).get(n, np.nan)))
-            if not (lo * (1 - rtol) <= v <= hi * (1 + rtol)):
+            if not inside(v, lo, hi):
                 return False
         return self.valid(dims)
 
@@ -333,7 +210,7 @@ def sample_with_geometry(
         with warnings.catch_warnings():  # balance is already lost to the rejections
             warnings.simplefilter("ignore")
             u = engine.random(draw)
-        moduli = space.from_unit(u[:, :dm])
+        moduli = space.designs_from_unit(u[:, :dm])
         dims = geometry.from_unit(u[:, dm:])
         out.extend((m, g) for m, g in zip(moduli, dims, strict=True) if geometry.valid(g))
         if len(out) >= n:

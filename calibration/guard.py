@@ -27,6 +27,7 @@ import numpy as np
 from isj.lumped.model import MODULI
 
 from isj.design import DEFAULT_PRESSURE_PA, Geometry, Materials
+from isj.design_space import inside
 from isj.errors import InvalidParameter
 
 from .checks import lumped_static
@@ -49,9 +50,6 @@ MAX_DENSE = 2**22
 
 #: The guarded sets, in report order.
 SETS = ("explored", "corners", "dense")
-
-#: Relative slack at the domain's faces (as :data:`isj.fem.rom.domain.EDGE_SLACK`).
-EDGE_SLACK = 1e-12
 
 VERDICTS = ("ok", "fail", "outside")
 
@@ -191,10 +189,9 @@ class GuardSet:
 def _inside(rom, designs: Mapping[str, np.ndarray]) -> np.ndarray:
     n = np.size(designs["incus_e_pa"])
     # the incus is fixed per surrogate: equal up to the slack (a grid's log-midpoint misses it by an ulp)
-    ok = np.abs(np.asarray(designs["incus_e_pa"]) / rom.space.incus_e_pa - 1) <= EDGE_SLACK
+    ok = inside(designs["incus_e_pa"], rom.space.incus_e_pa, rom.space.incus_e_pa)
     for k, (lo, hi) in rom.space.bounds.items():
-        v = np.asarray(designs[k])
-        ok &= np.isfinite(v) & (v >= lo * (1 - EDGE_SLACK)) & (v <= hi * (1 + EDGE_SLACK))
+        ok &= inside(designs[k], lo, hi)
     return np.broadcast_to(ok, (n,)).copy()
 
 

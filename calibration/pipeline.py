@@ -22,9 +22,10 @@ from isj.lumped.model import (
 )
 
 from isj.design import Geometry
+from isj.design_space import DesignSpace
 from isj.errors import InvalidParameter
 
-from .doe import DesignSpace, GeometrySpace, mixed_corners, sample, sample_with_geometry
+from .doe import GeometrySpace, mixed_corners, sample, sample_with_geometry
 from .fit import fit_factors, record_lever
 from .runner import run_designs, run_geometry_designs
 

@@ -23,6 +23,7 @@ import numpy as np
 from isj.lumped.model import MODULI
 
 from isj.design import DEFAULT_PRESSURE_PA, Geometry
+from isj.design_space import inside
 
 from .guard import DEFAULT_TOLERANCE, _base, corner_designs, dense_designs, guard_set
 
@@ -169,7 +170,7 @@ def in_region(region: Mapping, domain: Mapping, designs: Mapping[str, np.ndarray
     for k, (lo, hi) in domain.items():
         if k not in names and k in designs:
             v = np.broadcast_to(np.asarray(designs[k], dtype=float), (n,))
-            out &= (v >= lo * (1 - 1e-9)) & (v <= hi * (1 + 1e-9))
+            out &= inside(v, lo, hi)
     return out
 
 

@@ -15,7 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
-from isj.errors import CorruptCalibration  # noqa: F401 - re-exported, its old home
+from isj.design_space import inside
+from isj.errors import CorruptCalibration
 
 from .model import FACTOR_NAMES, SCALED_TERMS, SCALING_DIMENSIONS
 
@@ -97,7 +98,7 @@ class Calibration:
         for k, (lo, hi) in self.domain.items():
             if k in designs:
                 v = np.atleast_1d(np.asarray(designs[k], dtype=float))
-                out[k] = (v < lo * (1 - 1e-9)) | (v > hi * (1 + 1e-9))
+                out[k] = ~inside(v, lo, hi)
         return out
 
     def outside_geometry(self, geometry) -> dict[str, tuple[float, float, float]]:
@@ -117,7 +118,7 @@ class Calibration:
         out = {}
         for k, v in values.items():
             lo, hi = box.get(k, (fitted[k], fitted[k]))
-            if not (lo * (1 - 1e-9) <= v <= hi * (1 + 1e-9)):
+            if not inside(v, lo, hi):
                 out[k] = (float(v), lo, hi)
         # the sampler keeps the capsule's levels GEOMETRY_CLEARANCE_M apart: a geometry closer
         # than that lies inside the box but outside what the calibration was fitted on

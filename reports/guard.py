@@ -17,7 +17,9 @@ from .layout import text_block, wrap
 def guard_step(ctx) -> tuple[dict, dict]:
     """Corners and a dense sample through the surrogate; FE at the ``fe_checks`` worst designs."""
     from isj.calibration.guard import confirmations, run_guard, worst_picks
-    from isj.fem.rom import DesignSpace, reduced_model
+    from isj.fem.rom import reduced_model
+
+    from isj.design_space import DesignSpace
 
     cfg, g = ctx.config, ctx.config.guard
     base = cfg.design.materials()

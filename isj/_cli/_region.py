@@ -26,8 +26,9 @@ def cached_surrogate(
     from isj.errors import MeshError
 
     try:
+        from isj.design_space import DesignSpace
         from isj.fem.mesh import mesh_pedicle_joint
-        from isj.fem.rom import DesignSpace, ReducedModel, rom_cache_dir
+        from isj.fem.rom import ReducedModel, rom_cache_dir
         from isj.fem.rom.model import DEFAULT_TOL, cache_key
 
         geometry = geometry or Geometry()

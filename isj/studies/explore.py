@@ -1,6 +1,6 @@
 """The lumped model over a grid or a sample of many designs, guarded by the surrogate and FE.
 
-An exploration space is a :class:`~isj.calibration.doe.DesignSpace` with the
+An exploration space is a :class:`~isj.design_space.DesignSpace` with the
 incus modulus added (``isj explore`` lets every region's modulus range); a
 pinned modulus has low == high. Designs come from the unit cube through
 :meth:`DesignSpace.columns_from_unit`, the same log-uniform map as every
@@ -28,7 +28,7 @@ from isj.calibration.checks import (
     warn_fe_settings,
     warn_outside_domain,
 )
-from isj.calibration.doe import Bounds, DesignSpace, _engine
+from isj.calibration.doe import _engine
 from isj.calibration.guard import (
     DEFAULT_DENSE,
     DEFAULT_TOLERANCE,
@@ -39,6 +39,7 @@ from isj.calibration.guard import (
 )
 from isj.calibration.region import in_region, region_of
 from isj.design import DEFAULT_PRESSURE_PA, Geometry, Materials
+from isj.design_space import RANGED, Bounds, DesignSpace
 from isj.errors import InvalidParameter
 from isj.lumped.model import StaticResponse
 
@@ -51,6 +52,11 @@ class ExploreSpace(DesignSpace):
     """A :class:`DesignSpace` whose incus modulus may range too (Pa); pinned at 12 GPa by default."""
 
     incus_e_pa: Bounds = (Materials().incus_e_pa, Materials().incus_e_pa)
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """The ranged moduli, the incus's last."""
+        return (*RANGED, "incus_e_pa")
 
     @classmethod
     def pinned(cls, materials: Materials | None = None, **ranges: Bounds) -> ExploreSpace:
@@ -67,7 +73,7 @@ class ExploreSpace(DesignSpace):
 
 def _ranged(space: DesignSpace) -> list[int]:
     """Columns of the moduli of ``space`` with low < high."""
-    return [i for i, (lo, hi) in enumerate(space._pairs()) if hi > lo]
+    return [i for i, (lo, hi) in enumerate(space.bounds.values()) if hi > lo]
 
 
 def count_designs(space: DesignSpace, n: int = 5, sample: int | None = None) -> int:
