@@ -133,6 +133,47 @@ def _confirmed(guard: Guard, picks, records: Sequence[dict], pressure_pa: float)
     return out
 
 
+def _stalled(history: list[dict], k: int, patience: int, min_gain: float) -> bool:
+    """No progress in the ``patience`` rounds up to ``k``: the worst certified error did not fall by
+    ``min_gain`` and no fewer designs fail."""
+    before, recent = history[k - patience], history[k - patience + 1 :]
+    gain = min(h["max_certified_error"] for h in recent) <= before["max_certified_error"] * (1 - min_gain)
+    fewer = min(h["n_fail"] for h in recent) < before["n_fail"]
+    return not (gain or fewer)
+
+
+def _new_picks(guard, seen: set, per_round: int, domain) -> tuple[list, list[dict]]:
+    """The ``per_round`` worst guarded designs not trained on yet: (set, index) pairs and their moduli."""
+    picks = [
+        p
+        for p in worst_picks(guard, per_round + len(seen))
+        if tuple(sorted(_design(guard.sets[p[0]].design(p[1]), domain).items())) not in seen
+    ][:per_round]
+    return picks, [_design(guard.sets[name].design(i), domain) for name, i in picks]
+
+
+def _added_rows(round_: int, guard, picks, designs: list[dict], confirmed: list[bool]) -> list[dict]:
+    """One row per design added in round ``round_``: its set, moduli, FE confirmation and error."""
+    return [
+        {
+            "round": round_,
+            "set": name,
+            "design": d,
+            "confirmed": c,
+            "certified_error": float(guard.sets[name].max_certified[i]),
+        }
+        for (name, i), d, c in zip(picks, designs, confirmed, strict=True)
+    ]
+
+
+def _best_round(history: list[dict]) -> int:
+    """The best round: the fewest designs over the tolerance, then the smallest worst error (once the
+    tolerance is out of reach, the region where it holds is what a user gets), then the earliest."""
+    return min(
+        range(len(history)), key=lambda j: (history[j]["n_fail"], history[j]["max_certified_error"], j)
+    )
+
+
 def adaptive_fit(
     calibration,
     records: Sequence[dict],
@@ -219,45 +260,22 @@ def adaptive_fit(
         if row["max_certified_error"] <= tolerance:
             stop = "reached"
             break
-        if k >= patience:
-            # progress: the worst error fell by min_gain, or fewer designs fail, within ``patience`` rounds
-            before, recent = history[k - patience], history[k - patience + 1 :]
-            gain = min(h["max_certified_error"] for h in recent) <= before["max_certified_error"] * (
-                1 - min_gain
-            )
-            fewer = min(h["n_fail"] for h in recent) < before["n_fail"]
-            if not (gain or fewer):
-                stop = "no progress"
-                break
+        if k >= patience and _stalled(history, k, patience, min_gain):
+            stop = "no progress"
+            break
         if k == max_rounds:
             break
-        picks = [
-            p
-            for p in worst_picks(guard, per_round + len(seen))
-            if tuple(sorted(_design(guard.sets[p[0]].design(p[1]), calibration.domain).items())) not in seen
-        ][:per_round]
-        designs = [_design(guard.sets[name].design(i), calibration.domain) for name, i in picks]
+        picks, designs = _new_picks(guard, seen, per_round, calibration.domain)
         new = confirm(designs)
         if len(new) != len(designs):
             raise ValueError(f"confirm returned {len(new)} records for {len(designs)} designs")
         ok = _confirmed(guard, picks, new, pressure_pa)
-        for (name, i), d, c in zip(picks, designs, ok, strict=True):
-            seen.add(tuple(sorted(d.items())))
-            added.append(
-                {
-                    "round": k + 1,
-                    "set": name,
-                    "design": d,
-                    "confirmed": c,
-                    "certified_error": float(guard.sets[name].max_certified[i]),
-                }
-            )
+        seen.update(tuple(sorted(d.items())) for d in designs)
+        added += _added_rows(k + 1, guard, picks, designs, ok)
         records += list(new)
         fit = _refit(records, geometry, factors, norm)
         factors, iterations = fit.factors, fit.iterations
-    # the best round: the fewest designs over the tolerance, then the smallest worst error (once the
-    # tolerance is out of reach, the region where it holds is what a user gets)
-    b = min(range(len(history)), key=lambda j: (history[j]["n_fail"], history[j]["max_certified_error"], j))
+    b = _best_round(history)
     n_train = history[b]["n_train"]
     return AdaptiveResult(
         factors=fits[b][0],
@@ -356,7 +374,9 @@ def calibrate_adaptive(
     ``provenance["adaptive"]`` and the map of the region where the tolerance holds under
     ``region`` (:func:`calibration.region.build_region`, ``region_sample`` designs).
     """
-    from .doe import DesignSpace, sample
+    from isj.design_space import DesignSpace
+
+    from .doe import sample
     from .pipeline import calibrate, records_for_fit
     from .region import DEFAULT_MAP_SAMPLE, build_region
     from .runner import run_designs

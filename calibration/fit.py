@@ -25,7 +25,7 @@ from isj.lumped.model import (
 
 from isj.design import Geometry
 from isj.errors import (
-    FitFailed,  # noqa: F401 - re-exported, its old home
+    FitFailed,
     InvalidParameter,
 )
 
@@ -160,12 +160,9 @@ def fit_factors(
     0 (the forms of :class:`~isj.lumped.model.Lever` alone) by a ridge ``scaling_ridge`` · ½ c²;
     the result's ``scaling`` holds them (docs/lumped.md §3.16).
     """
-    import casadi as ca
-
     if not (isinstance(norm, int | float) and math.isfinite(norm) and norm >= 2):
         raise InvalidParameter(f"norm = {norm!r}: must be a finite number >= 2")
     E, alpha_fe, beta_fe = fe_arrays(records)
-    n = len(FACTOR_NAMES)
     terms = tuple(scaling_terms)
     geometries = record_geometries(records, geometry)
     # built once: the geometries are the costly part of a lever over hundreds of records
@@ -179,7 +176,26 @@ def fit_factors(
     unknown = [t for t in terms if t not in SCALED_TERMS]
     if unknown:
         raise InvalidParameter(f"scaling_terms: unknown term(s) {', '.join(unknown)}")
-    nd = len(SCALING_DIMENSIONS)
+    x, r = _residuals(E, alpha_fe, beta_fe, lever, geometries, terms, joint, norm)
+    solver = _gauss_newton_ipopt(x, r, len(terms), scaling_ridge, max_iter)
+    start, lbx, ubx = _start_and_bounds(x0, lever, len(terms))
+    sol = solver(x0=start, lbx=lbx, ubx=ubx)
+    stats = solver.stats()
+    if not stats.get("success", False):
+        raise FitFailed(f"calibration fit failed: IPOPT {stats.get('return_status')}", dict(stats))
+    xs = np.asarray(sol["x"]).ravel()
+    return _fit_result(xs, stats, E, alpha_fe, beta_fe, lever, geometries, terms, joint)
+
+
+def _residuals(E, alpha_fe, beta_fe, lever: Lever, geometries, terms, joint: str, norm: float):
+    """The unknowns x = (log factors, vec(exponents)) and the residual vector r(x) (CasADi SX).
+
+    r: the relative errors of α and β, with ``norm`` p > 2 also of β/α, each then raised as in
+    :func:`fit_factors`.
+    """
+    import casadi as ca
+
+    n, nd = len(FACTOR_NAMES), len(SCALING_DIMENSIONS)
     logf = ca.SX.sym("log_factors", n)
     C = ca.SX.sym("exponents", len(terms), nd)
     f = ca.exp(logf)
@@ -192,19 +208,26 @@ def fit_factors(
     if norm != 2:
         r = ca.vertcat(r, (b / a) / ca.DM(beta_fe / alpha_fe) - 1)
         r = r * (r**2 / NORM_SCALE**2 + 1e-12) ** ((norm - 2) / 4)
-    x = ca.vertcat(logf, ca.vec(C))
+    return ca.vertcat(logf, ca.vec(C)), r
+
+
+def _gauss_newton_ipopt(x, r, n_terms: int, scaling_ridge: float, max_iter: int):
+    """IPOPT on ½ rᵀr (plus the exponents' ridge), with the Gauss–Newton Hessian JᵀJ (+ ridge)."""
+    import casadi as ca
+
+    n, nd = len(FACTOR_NAMES), len(SCALING_DIMENSIONS)
     J = ca.jacobian(r, x)
     obj = 0.5 * ca.dot(r, r)
     gn = ca.mtimes(J.T, J)
-    if terms:
-        ridge = ca.DM(np.concatenate([np.zeros(n), np.full(len(terms) * nd, float(scaling_ridge))]))
+    if n_terms:
+        ridge = ca.DM(np.concatenate([np.zeros(n), np.full(n_terms * nd, float(scaling_ridge))]))
         obj = obj + 0.5 * ca.dot(ridge, x**2)
         gn = gn + ca.diag(ridge)
     # Gauss–Newton Hessian of the Lagrangian: JᵀJ plus the ridge (objective factor sigma)
     sigma = ca.SX.sym("sigma")
     lam = ca.SX.sym("lam", 0)
     hess = ca.Function("nlp_hess_l", [x, ca.SX.sym("p", 0), sigma, lam], [ca.triu(sigma * gn)])
-    solver = ca.nlpsol(
+    return ca.nlpsol(
         "fit",
         "ipopt",
         {"x": x, "f": obj},
@@ -214,6 +237,11 @@ def fit_factors(
             "ipopt": {"print_level": 0, "sb": "yes", "tol": 1e-12, "max_iter": max_iter},
         },
     )
+
+
+def _start_and_bounds(x0, lever: Lever, n_terms: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The start point and the bounds of x = (log factors, exponents)."""
+    n, nd = len(FACTOR_NAMES), len(SCALING_DIMENSIONS)
     start = np.log(INITIAL_FACTORS if x0 is None else np.asarray(x0, dtype=float)).copy()
     # bounds keep exp() finite: a factor that wants to vanish (a term the data
     # do not need) parks at e^-25 instead of running to -inf
@@ -223,15 +251,16 @@ def fit_factors(
         # cannot tell them apart; it stays at e^-25 (0) and the punch term carries both
         i = FACTOR_NAMES.index("root_plate")
         start[i] = lbx[i] = ubx[i] = -LOG_BOUND
-    ne = len(terms) * nd
+    ne = n_terms * nd
     start = np.concatenate([start, np.zeros(ne)])
     lbx = np.concatenate([lbx, np.full(ne, -SCALING_BOUND)])
     ubx = np.concatenate([ubx, np.full(ne, SCALING_BOUND)])
-    sol = solver(x0=start, lbx=lbx, ubx=ubx)
-    stats = solver.stats()
-    if not stats.get("success", False):
-        raise FitFailed(f"calibration fit failed: IPOPT {stats.get('return_status')}", dict(stats))
-    xs = np.asarray(sol["x"]).ravel()
+    return start, lbx, ubx
+
+
+def _fit_result(xs, stats, E, alpha_fe, beta_fe, lever: Lever, geometries, terms, joint: str) -> FitResult:
+    """The :class:`FitResult` of IPOPT's solution ``xs``: factors, exponents and the errors."""
+    n, nd = len(FACTOR_NAMES), len(SCALING_DIMENSIONS)
     factors = np.exp(xs[:n])
     scaling = None
     if terms:

@@ -118,7 +118,7 @@ def plot_study(rows: list[dict], path, title: str = "", ax=None):
     -------
     the Axes drawn on
     """
-    from .export import atomic_write
+    from isj.atomic import atomic_write
 
     own = ax is None
     if own:  # a bare Figure, no pyplot: the caller's backend is left alone
@@ -168,7 +168,7 @@ def joint_study(
     for r in resolutions:
         t0 = time.perf_counter()
         m = PedicleJointModel(order=order, resolution=r, sizes=sizes, cache_dir=cache_dir)
-        res = m.solve()
+        res = m.static()
         rows.append(
             {
                 "order": order,

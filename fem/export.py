@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from isj.atomic import atomic_write, atomic_write_json, atomic_write_text  # noqa: F401 (re-export)
+from isj.atomic import atomic_write, atomic_write_text
 
 
 def write_vtu(path, space, displacement_m: np.ndarray, cell_data: dict[str, np.ndarray]) -> Path:

@@ -1,7 +1,7 @@
 """The pedicle-and-joint FE model: mesh and assemble once, solve for any materials.
 
 >>> model = PedicleJointModel(order=2)               # doctest: +SKIP
->>> res = model.solve(Materials(pedicle_e_pa=3e9))   # doctest: +SKIP
+>>> res = model.static(Materials(pedicle_e_pa=3e9))  # doctest: +SKIP
 >>> res.alpha_rad, res.beta_rad                      # doctest: +SKIP
 
 Everything that does not depend on the moduli is built once: the mesh (cached
@@ -31,12 +31,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from isj.cases import THESIS_CASES
 from isj.design import DEFAULT_PRESSURE_PA, Geometry, Materials, check_pressure
 from isj.errors import VolumetricLockingWarning
 
 from .angles import angle_operator
 from .assembly import assemble_mass, assemble_regions, build_pattern, combine, lame_unit
 from .boundary import Reduction, clamped_dofs, pressure_load
+from .dynamics import harmonic_response, modes
 from .energy import element_strain_energy_density, region_strain_energy
 from .sliding import (
     DEFAULT_LAYER_SHEAR_PA,
@@ -44,6 +46,7 @@ from .sliding import (
     check_layer_shear,
     layer_correction,
     layer_gap_energy_change,
+    shear_split,
     split_gap_face,
     tied_reduction,
 )
@@ -286,7 +289,7 @@ class PedicleJointModel(ElasticModel):
     def solver_name(self) -> str:
         return self._solver.name if self._solver is not None else self._solver_name
 
-    def solve(
+    def static(
         self, materials: Materials | None = None, pressure_pa: float = DEFAULT_PRESSURE_PA
     ) -> StaticResult:
         """Static response to a uniform pressure (Pa) on the incus's −x face."""
@@ -324,14 +327,80 @@ class PedicleJointModel(ElasticModel):
 
         :func:`fem.dynamics.harmonic_response`: an :class:`isj.responses.FrequencyResponse` at
         the pressure amplitude ``pressure_pa`` (Pa), damping a :class:`fem.dynamics.Damping`
-        (default Rayleigh b = 1e-4 s), outputs those of the lumped chain.
+        (default: the published loss factors per region), outputs those of the lumped chain.
         """
-        from .dynamics import harmonic_response
-
         return harmonic_response(self, freq_hz, materials, damping, pressure_pa)
+
+    def natural_frequencies_hz(self, n: int = 6, materials: Materials | None = None) -> np.ndarray:
+        """The ``n`` lowest undamped natural frequencies (Hz), ascending (:func:`fem.dynamics.modes`).
+
+        The mode shapes beside them: :func:`isj.fem.dynamics.modes`.
+        """
+        return modes(self, materials, n)[0]
 
     def strain_energy_density(self, result: StaticResult) -> np.ndarray:
         """Mean strain-energy density per element (J/m³)."""
         m = result.materials
         e = np.array([m.youngs(r) for r in self.space.region_names])[self.space.region]
         return element_strain_energy_density(self.space, e, m.nu, result.displacement_m.ravel())
+
+
+def compare_cases(
+    order: int = 2,
+    resolution: float = 1.0,
+    joints=("bonded", "sliding"),
+    nu: float = 0.3,
+    pressure_pa: float = DEFAULT_PRESSURE_PA,
+    layer_shear_pa: float = DEFAULT_LAYER_SHEAR_PA,
+    cache_dir=None,
+    geometry=None,
+    base: Materials | None = None,
+) -> list[dict]:
+    """The seven thesis cases for each joint: one row per (case, joint), cases in thesis order.
+
+    ``geometry`` (default :class:`isj.design.Geometry`) and ``base`` (the moduli the cases do not
+    set; default :class:`isj.design.Materials` with ``nu``) as the other FE commands take them.
+
+    Keys: ``case``, ``joint``, ``alpha_rad``, ``beta_rad``, ``alpha_plus_beta_rad``,
+    ``beta_over_alpha`` (point pairs, as the thesis), ``alpha_ls_rad``, ``beta_ls_rad``
+    (least-squares rotations), ``capsule_shear_share``, ``gap_shear_share``,
+    ``capsule_moment_share``, ``gap_moment_share`` (:func:`shear_split`),
+    ``strain_energy_j`` (total, = ½ fᵀu, J), ``order``, ``resolution``.
+    """
+    base = base or Materials(nu=nu)
+    models = {
+        j: PedicleJointModel(
+            geometry,
+            order=order,
+            resolution=resolution,
+            joint=j,
+            layer_shear_pa=layer_shear_pa,
+            cache_dir=cache_dir,
+        )
+        for j in joints
+    }
+    rows = []
+    for case in THESIS_CASES:
+        for j, model in models.items():
+            res = model.static(case.materials(base), pressure_pa)
+            split = shear_split(model, res)
+            rows.append(
+                {
+                    "case": case.name,
+                    "joint": j,
+                    "alpha_rad": res.alpha_rad,
+                    "beta_rad": res.beta_rad,
+                    "alpha_plus_beta_rad": res.sum_rad,
+                    "beta_over_alpha": res.ratio,
+                    "alpha_ls_rad": res.alpha_ls_rad,
+                    "beta_ls_rad": res.beta_ls_rad,
+                    "capsule_shear_share": split["capsule_shear_share"],
+                    "gap_shear_share": split["gap_shear_share"],
+                    "capsule_moment_share": split["capsule_moment_share"],
+                    "gap_moment_share": split["gap_moment_share"],
+                    "strain_energy_j": sum(res.strain_energy_j.values()),
+                    "order": order,
+                    "resolution": resolution,
+                }
+            )
+    return rows

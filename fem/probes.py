@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from isj.errors import PointOutsideBody  # noqa: F401 - re-exported, its old home
+from isj.errors import PointOutsideBody
 
 from .elements import barycentric, shape_functions, tet_quadrature
 from .space import Space

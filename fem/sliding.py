@@ -22,7 +22,7 @@ Three joints, :data:`JOINTS`:
   volumetric locking.
 
 :func:`shear_split` says how the joint's shear (x, the load direction) splits
-between the capsule and the gap; :func:`compare_cases` gives the seven thesis
+between the capsule and the gap; :func:`isj.fem.model.compare_cases` gives the seven thesis
 cases for several joints.
 """
 
@@ -33,7 +33,7 @@ import math
 import numpy as np
 import scipy.sparse as sp
 
-from isj.design import DEFAULT_PRESSURE_PA, Geometry, Materials
+from isj.design import Geometry, Materials
 from isj.errors import InvalidParameter
 
 from .assembly import combine, lame_unit
@@ -295,68 +295,3 @@ def shear_split(model, result) -> dict[str, float]:
         "capsule_shear_share": fx["capsule"] / total,
         "gap_shear_share": fx["gap"] / total,
     }
-
-
-def compare_cases(
-    order: int = 2,
-    resolution: float = 1.0,
-    joints=("bonded", "sliding"),
-    nu: float = 0.3,
-    pressure_pa: float = DEFAULT_PRESSURE_PA,
-    layer_shear_pa: float = DEFAULT_LAYER_SHEAR_PA,
-    cache_dir=None,
-    geometry=None,
-    base: Materials | None = None,
-) -> list[dict]:
-    """The seven thesis cases for each joint: one row per (case, joint), cases in thesis order.
-
-    ``geometry`` (default :class:`isj.design.Geometry`) and ``base`` (the moduli the cases do not
-    set; default :class:`isj.design.Materials` with ``nu``) as the other FE commands take them.
-
-    Keys: ``case``, ``joint``, ``alpha_rad``, ``beta_rad``, ``alpha_plus_beta_rad``,
-    ``beta_over_alpha`` (point pairs, as the thesis), ``alpha_ls_rad``, ``beta_ls_rad``
-    (least-squares rotations), ``capsule_shear_share``, ``gap_shear_share``,
-    ``capsule_moment_share``, ``gap_moment_share`` (:func:`shear_split`),
-    ``strain_energy_j`` (total, = ½ fᵀu, J), ``order``, ``resolution``.
-    """
-    from isj.cases import THESIS_CASES
-
-    from .model import PedicleJointModel
-
-    base = base or Materials(nu=nu)
-    models = {
-        j: PedicleJointModel(
-            geometry,
-            order=order,
-            resolution=resolution,
-            joint=j,
-            layer_shear_pa=layer_shear_pa,
-            cache_dir=cache_dir,
-        )
-        for j in joints
-    }
-    rows = []
-    for case in THESIS_CASES:
-        for j, model in models.items():
-            res = model.solve(case.materials(base), pressure_pa)
-            split = shear_split(model, res)
-            rows.append(
-                {
-                    "case": case.name,
-                    "joint": j,
-                    "alpha_rad": res.alpha_rad,
-                    "beta_rad": res.beta_rad,
-                    "alpha_plus_beta_rad": res.sum_rad,
-                    "beta_over_alpha": res.ratio,
-                    "alpha_ls_rad": res.alpha_ls_rad,
-                    "beta_ls_rad": res.beta_ls_rad,
-                    "capsule_shear_share": split["capsule_shear_share"],
-                    "gap_shear_share": split["gap_shear_share"],
-                    "capsule_moment_share": split["capsule_moment_share"],
-                    "gap_moment_share": split["gap_moment_share"],
-                    "strain_energy_j": sum(res.strain_energy_j.values()),
-                    "order": order,
-                    "resolution": resolution,
-                }
-            )
-    return rows

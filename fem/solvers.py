@@ -7,21 +7,16 @@ factorization and load cases cost one triangular solve each. PARDISO's
 ordering can also be kept on disk per pattern (``ordering_cache``), so that
 another process skips METIS.
 
-Backends, in order of preference as measured on this model (P2, default mesh,
-113k dofs, 2 cores): analysis + numeric factorization
+Backends, in order of preference, the fastest first on this model (timings:
+docs/performance.md §8.2; the backends compared: docs/history.md):
 
 - ``"pardiso"`` — Intel MKL PARDISO via pypardiso, SPD mode on the upper
-  triangle (plain pip on x86-64; the default): 1.5 s + 1.3 s;
+  triangle (plain pip on x86-64; the default);
 - ``"cholmod"`` — SuiteSparse CHOLMOD via scikit-sparse (optional: needs
   ``apt-get install libsuitesparse-dev libopenblas0-pthread`` and
-  ``pip install scikit-sparse==0.4.16``): 1.9 s + 3.1 s with OpenBLAS, 2.2 s +
-  10.5 s with Debian's reference BLAS;
-- not kept: ``cholespy`` (CHOLMOD in a PyPI wheel, reference BLAS, no
-  refactorization): 20 s CPU for analysis + factorization against PARDISO's
-  2.8 s; ``python-mumps`` has no wheel (docs/performance.md §8.2);
+  ``pip install scikit-sparse==0.4.16``);
 - ``"superlu"`` — scipy's SuperLU (always available; LU, no reuse of the
-  analysis; scikit-fem's default solve through it took 18× PARDISO's time on the
-  default mesh, ``benchmarks/fem_speed.py``).
+  analysis; the slowest, ``benchmarks/fem_speed.py``).
 
 For the dynamic stiffness (``fem.dynamics``): :func:`make_indefinite_solver`
 (real symmetric indefinite, PARDISO mtype −2) and
@@ -41,10 +36,8 @@ set with ``mkl_set_num_threads``, which gmsh's own OpenMP setting (one thread,
 ``fem.mesh``) does not reach. Each solver also asks for conditional numerical
 reproducibility at that count (iparm(34)): without it two solves of the same
 right-hand side differed in the last bits, which made ``eigsh`` and the
-harmonic response change from run to run. Cost, measured on the default mesh
-(P2, 113k dofs, 2 shared cores under a load of 3–4, two solvers alternating in
-one process): factorization median 2.3 s with reproducibility against 2.1 s
-without (2 threads), 1.6 s against 1.8 s (1 thread); no cost above the noise.
+harmonic response change from run to run. Its cost is within the timing noise
+(docs/history.md).
 """
 
 from __future__ import annotations
@@ -60,7 +53,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from isj.errors import InvalidParameter, SolverUnavailable  # noqa: F401 - re-exported, its old home
+from isj.errors import InvalidParameter, SolverUnavailable
 
 BACKENDS = ("pardiso", "cholmod", "superlu")
 

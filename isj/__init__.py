@@ -9,7 +9,7 @@ The entry points are importable from here (``isj.__all__``):
 >>> import isj
 >>> lm = isj.LumpedModel.default()                       # the calibrated lumped model
 >>> model = isj.PedicleJointModel(order=1, resolution=0.5)   # doctest: +SKIP
->>> model.solve(isj.Materials(gap_e_pa=5e6)).to_dict()        # doctest: +SKIP
+>>> model.static(isj.Materials(gap_e_pa=5e6)).to_dict()       # doctest: +SKIP
 
 Names are imported on first use (PEP 562), so ``import isj`` stays light (no
 gmsh, SciPy or CasADi) and the subpackages, which import ``isj.design``, meet
@@ -46,13 +46,12 @@ _LAZY: dict[str, str] = {
     "Damping": "isj.damping",
     "MiddleEarModel": "isj.fem.ear.middle_ear",
     "EarStaticResult": "isj.fem.ear.middle_ear",
-    "EarDamping": "isj.fem.ear.dynamics",
     "EarHarmonicResult": "isj.fem.ear.dynamics",
     # the lumped model and its calibration
     "LumpedModel": "isj.lumped.api",
     "LumpedStaticResult": "isj.lumped.api",
     "Calibration": "isj.lumped.artifact",
-    "DesignSpace": "isj.calibration.doe",
+    "DesignSpace": "isj.design_space",
     "sample": "isj.calibration.doe",
 }
 

@@ -128,6 +128,8 @@ class Damping:
     cochlear_impedance_pa_s_m3 : the cochlea's acoustic input resistance Z_C (Pa·s/m³), in
         parallel with the annular springs as R = Z_C A² along the piston direction
 
+    Notes
+    -----
     Each of the first three is None (the published defaults), a number (that value for every
     name it applies to) or a mapping name → value (those names changed, the others at their
     published defaults). ``Damping()`` is the published default, :meth:`preset` gives the named

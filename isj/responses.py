@@ -1,10 +1,12 @@
 """Result types shared by the FE and the lumped models: one frequency response, computed apart from drawing.
 
 :class:`FrequencyResponse` is what every frequency sweep of isj returns: the
-lumped chain (:meth:`isj.lumped.api.LumpedModel.chain_response`), the lumped ear
-(:meth:`isj.lumped.ear.LumpedEar.response`), the FE model's harmonic outputs
-(:func:`isj.fem.dynamics.harmonic_response`) and the FE ear
-(:meth:`isj.fem.ear.dynamics.EarHarmonicResult.response`). As in
+lumped chain (:meth:`isj.lumped.api.LumpedModel.frequency_response`), the lumped ear
+(:meth:`isj.lumped.ear.LumpedEar.frequency_response`), the FE joint model
+(:meth:`isj.fem.model.PedicleJointModel.frequency_response`), the FE ear
+(:meth:`isj.fem.ear.middle_ear.MiddleEarModel.frequency_response`) and the reduced FE ear
+(:meth:`isj.fem.ear.reduced_ear.ReducedEar.frequency_response`): every model's
+``frequency_response(freq_hz, ...)``. As in
 python-control, the object holds the numbers and ``plot`` draws them on axes the
 caller may supply; as in pyMOR's ``freq_resp``, the complex values have the
 shape (n_freq, n_out, n_in).

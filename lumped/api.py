@@ -26,12 +26,14 @@ import numpy as np
 
 from isj.design import DEFAULT_PRESSURE_PA, Geometry, Materials
 from isj.errors import InvalidParameter
+from isj.responses import FrequencyResponse
 from isj.validate import check_frequencies
 
 from .artifact import Calibration, calibration_for, check_joint, default_calibration
-from .dynamics import OUTPUTS, UNITS, SecondOrderModel, chain_model
+from .dynamics import OUTPUTS, UNITS, chain_model
 from .ear import LumpedEar, ear_model
 from .model import MODULI, StaticResponse, moduli_arrays, static_response
+from .second_order import SecondOrderModel
 
 _DEFAULT = Materials()
 
@@ -75,10 +77,10 @@ def _pressure(pressure_pa):
     return float(p) if p.ndim == 0 else p
 
 
-def chain_response(model: SecondOrderModel, freq_hz, pressure_pa: float = DEFAULT_PRESSURE_PA):
+def _chain_response(model: SecondOrderModel, freq_hz, pressure_pa: float = DEFAULT_PRESSURE_PA):
     """One design's chain response at ``freq_hz`` (Hz) to a pressure amplitude (Pa), as a FrequencyResponse.
 
-    The numbers of :func:`isj.lumped.dynamics.frequency_response`, bit for bit.
+    The numbers of :func:`isj.lumped.dynamics.chain_outputs`, bit for bit.
 
     Parameters
     ----------
@@ -90,8 +92,6 @@ def chain_response(model: SecondOrderModel, freq_hz, pressure_pa: float = DEFAUL
     -------
     isj.responses.FrequencyResponse : outputs :data:`isj.lumped.dynamics.OUTPUTS` (rad, rad, m)
     """
-    from isj.responses import FrequencyResponse
-
     if model.M.ndim != 2:
         raise InvalidParameter("model: one design only (no design axis); use model.freq_resp for many")
     f = check_frequencies(freq_hz)
@@ -301,7 +301,7 @@ class LumpedModel:
             **self._moduli(materials, moduli),
         )
 
-    def chain_response(
+    def frequency_response(
         self,
         freq_hz,
         materials=None,
@@ -316,8 +316,8 @@ class LumpedModel:
         """The chain's α, β (rad) and incus u_x (m) at ``freq_hz`` (Hz) for one design.
 
         Returns an :class:`isj.responses.FrequencyResponse` at the pressure amplitude
-        ``pressure_pa`` (Pa); the numbers of ``isj sweep``. For many designs use
-        ``chain(...).freq_resp(freq_hz)``.
+        ``pressure_pa`` (Pa); the numbers of ``isj sweep``. For many designs at once:
+        :func:`isj.lumped.dynamics.chain_outputs` on :meth:`chain`.
         """
         model = self.chain(
             materials,
@@ -327,11 +327,12 @@ class LumpedModel:
             damping=damping,
             **moduli,
         )
-        return chain_response(model, freq_hz, _pressure(pressure_pa))
+        return _chain_response(model, freq_hz, _pressure(pressure_pa))
 
-    def natural_frequencies_hz(self, materials=None, **moduli) -> np.ndarray:
-        """The chain's eight undamped natural frequencies (Hz), ascending (per design)."""
-        return self.chain(materials, rayleigh_b_s=0.0, **moduli).poles()[0]
+    def natural_frequencies_hz(self, n: int | None = None, materials=None, **moduli) -> np.ndarray:
+        """The chain's undamped natural frequencies (Hz), ascending (the ``n`` lowest of 8; per design)."""
+        f = self.chain(materials, rayleigh_b_s=0.0, **moduli).poles()[0]
+        return f if n is None else f[..., :n]
 
     # ---- the whole ear ------------------------------------------------------------------------
 
@@ -353,6 +354,9 @@ class LumpedModel:
         **moduli,
     ) -> LumpedEar:
         """The lumped ear (:func:`isj.lumped.ear.ear_model`) with this calibration's joint.
+
+        Its response: ``ear(...).static()``, ``ear(...).frequency_response(freq_hz)`` (the numbers
+        of ``isj ear sweep``) and ``ear(...).natural_frequencies_hz()``.
 
         Parameters
         ----------
@@ -383,12 +387,3 @@ class LumpedModel:
             drum_modes=drum_modes,
             **self._moduli(materials, moduli),
         )
-
-    def ear_response(self, freq_hz, materials=None, *, pressure_pa: float = 1.0, **ear_options):
-        """The lumped ear's umbo, stapes (m), α and β (rad) at ``freq_hz`` (Hz), one design.
-
-        ``ear_options`` as :meth:`ear`; the response is at the ear-canal pressure amplitude
-        ``pressure_pa`` (Pa; 1: per Pa), an :class:`isj.responses.FrequencyResponse` with the
-        numbers of ``isj ear sweep``.
-        """
-        return self.ear(materials, **ear_options).response(freq_hz, _pressure(pressure_pa))

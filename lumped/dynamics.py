@@ -58,7 +58,7 @@ from isj.errors import InvalidParameter
 
 from .damping import damping_terms, region_stiffness
 from .model import FACTOR_NAMES, Lever, equations, moduli_arrays
-from .second_order import SecondOrderModel, _eig, _modal  # noqa: F401 - their old home
+from .second_order import SecondOrderModel
 
 OUTPUTS = ("alpha_rad", "beta_rad", "incus_ux_m")
 #: Units of :data:`OUTPUTS`' amplitudes (at a given pressure amplitude).
@@ -443,6 +443,10 @@ def chain_model(
     return SecondOrderModel(M=M, E=Ed, K=K, B=Bm, C=Cm, K_loss=K_loss)
 
 
-def frequency_response(model: SecondOrderModel, freq_hz, pressure_pa: float = DEFAULT_PRESSURE_PA):
-    """Complex α, β (rad) and incus u_x (m) at ``freq_hz`` for a pressure amplitude (Pa)."""
+def chain_outputs(model: SecondOrderModel, freq_hz, pressure_pa: float = DEFAULT_PRESSURE_PA) -> np.ndarray:
+    """Complex α, β (rad) and incus u_x (m) at ``freq_hz`` for a pressure amplitude (Pa), any designs.
+
+    (n_freq, 3), or (n_design, n_freq, 3) for a batched model; for one design as an
+    :class:`isj.responses.FrequencyResponse`: :meth:`isj.lumped.api.LumpedModel.frequency_response`.
+    """
     return model.freq_resp(freq_hz)[..., 0] * pressure_pa

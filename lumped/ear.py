@@ -71,18 +71,21 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from isj.cavities import DEFAULT_CAVITIES, cavity_factor, check_cavities
 from isj.damping import Damping, resolve
-from isj.design import REGIONS, Geometry, Materials
+from isj.design import REGIONS, Geometry, Materials, check_pressure
 from isj.ear import EarGeometry, EarMasses, EarMaterials
 from isj.errors import InvalidParameter
 from isj.kinematics import grounded_springs, point_map, rigid_mass
+from isj.responses import FrequencyResponse
 from isj.validate import check_frequencies
 
 from .damping import damping_terms, region_stiffness
-from .dynamics import SecondOrderModel, _coupling, joint_coupling
+from .dynamics import _coupling, joint_coupling
 from .ear_drum import DrumModes, mode_blocks, mode_scale, resolve_modes
 from .ear_drum import freq_resp as condensed_freq_resp
 from .model import moduli_arrays
+from .second_order import SecondOrderModel
 
 OUTPUTS = ("umbo_m", "stapes_m", "alpha_rad", "beta_rad")
 UNITS = {"umbo_m": "m/Pa", "stapes_m": "m/Pa", "alpha_rad": "rad/Pa", "beta_rad": "rad/Pa"}
@@ -216,6 +219,9 @@ class LumpedEar:
     joint : the condensed joint's own terms on (α, β), (K, E, K_loss), each (2, 2) or
         (n_design, 2, 2), the rest of ``system`` being the ear around it (N·m/rad, N·m·s/rad);
         None for the rigid joint (:func:`isj.lumped.transmission.load_path`)
+    cavities : "open" (default) or "intact": the middle-ear cavities' load on the drum
+        (:mod:`isj.cavities`, docs/circuit.md §13.3), applied to every dynamic output; the static
+        outputs are the open ear's
     """
 
     system: SecondOrderModel
@@ -223,44 +229,104 @@ class LumpedEar:
     umbo_direction: np.ndarray
     drum_modes: slice | None = None
     joint: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+    cavities: str = DEFAULT_CAVITIES
 
-    def _freq_resp(self, freq_hz) -> np.ndarray:
+    def _open_transfer(self, system, freq_hz) -> np.ndarray:
         if self.drum_modes is None:
-            return self.system.freq_resp(freq_hz)
-        return condensed_freq_resp(self.system, self.drum_modes, freq_hz)
+            return system.freq_resp(freq_hz)
+        return condensed_freq_resp(system, self.drum_modes, freq_hz)
+
+    def _transfer(self, freq_hz) -> np.ndarray:
+        H = self._open_transfer(self.system, freq_hz)
+        if check_cavities(self.cavities) == "open":
+            return H
+        return H * cavity_factor(freq_hz, self._open_volume(freq_hz), self.cavities)[..., None, None]
+
+    def _open_volume(self, freq_hz) -> np.ndarray:
+        # B is the drum's load per Pa, so by reciprocity Bᵀq is its volume displacement (m³)
+        volume = dataclasses.replace(self.system, C=np.swapaxes(self.system.B, -1, -2))
+        return self._open_transfer(volume, freq_hz)[..., 0, 0]
+
+    def with_cavities(self, cavities: str) -> LumpedEar:
+        """The same ear with the cavities ``cavities`` ("open" or "intact", :mod:`isj.cavities`)."""
+        return dataclasses.replace(self, cavities=check_cavities(cavities))
+
+    def drum_volume_m3(self, freq_hz) -> np.ndarray:
+        """The drum's net volume displacement per Pa of ear-canal pressure (m³/Pa, medial positive),
+        complex, (n_freq,) or (n_design, n_freq), with this ear's cavities."""
+        X = self._open_volume(freq_hz)
+        return X * cavity_factor(freq_hz, X, check_cavities(self.cavities))
 
     @property
     def batched(self) -> bool:
         return self.system.M.ndim == 3
 
-    def static_response(self, pressure_pa: float = 1.0) -> np.ndarray:
-        """Static outputs (:data:`OUTPUTS`), (4,) or (n_design, 4): K q = B p, y = C q (SI)."""
+    def static(self, pressure_pa: float = 1.0) -> LumpedEarStaticResult:
+        """Static outputs (:data:`OUTPUTS`) at ear-canal pressure ``pressure_pa`` (Pa): K q = B p, y = C q.
+
+        Returns
+        -------
+        LumpedEarStaticResult : ``outputs`` (4,) or (n_design, 4), SI units
+        """
+        return LumpedEarStaticResult(self._static_outputs(pressure_pa), pressure_pa)
+
+    def _static_outputs(self, pressure_pa: float = 1.0) -> np.ndarray:
         s = self.system
         q = np.linalg.solve(s.K, s.B)
         return (s.C @ q)[..., 0] * pressure_pa
 
-    def freq_resp(self, freq_hz, pressure_pa: float = 1.0) -> np.ndarray:
-        """Complex outputs at ``freq_hz`` (Hz): (n_freq, 4) or (n_design, n_freq, 4) (SI)."""
-        return self._freq_resp(freq_hz)[..., 0] * pressure_pa
+    def _freq_resp(self, freq_hz, pressure_pa: float = 1.0) -> np.ndarray:
+        """Complex outputs at ``freq_hz`` (Hz): (n_freq, 4) or (n_design, n_freq, 4) (SI), any designs."""
+        return self._transfer(freq_hz)[..., 0] * pressure_pa
 
-    def response(self, freq_hz, pressure_pa: float = 1.0):
-        """:meth:`freq_resp` as an :class:`isj.responses.FrequencyResponse` (one design; same numbers).
+    def frequency_response(self, freq_hz, pressure_pa: float = 1.0):
+        """Umbo, stapes (m), α and β (rad) at ``freq_hz`` (Hz), an :class:`isj.responses.FrequencyResponse`.
 
-        Outputs :data:`OUTPUTS` in m and rad at the ear-canal pressure amplitude ``pressure_pa``
+        One design; outputs :data:`OUTPUTS` at the ear-canal pressure amplitude ``pressure_pa``
         (Pa; 1: per Pa).
         """
-        from isj.responses import FrequencyResponse
-
         if self.batched:
-            raise InvalidParameter("LumpedEar.response: one design only; use freq_resp for many")
+            raise InvalidParameter("LumpedEar.frequency_response: one design only (no design axis)")
+        pressure_pa = check_pressure(pressure_pa)
         f = check_frequencies(freq_hz)
-        H = self._freq_resp(f) * pressure_pa
+        H = self._transfer(f) * pressure_pa
         units = tuple(UNITS[k].removesuffix("/Pa") for k in OUTPUTS)
         return FrequencyResponse(f, H, OUTPUTS, units, input_amplitude=pressure_pa)
 
-    def natural_frequencies_hz(self) -> tuple[np.ndarray, np.ndarray]:
-        """Undamped natural frequencies (Hz) and modal damping ratios, sorted."""
-        return self.system.poles()
+    def natural_frequencies_hz(self, n: int | None = None) -> np.ndarray:
+        """Undamped natural frequencies (Hz), ascending (the ``n`` lowest; per design when batched).
+
+        The modal damping ratios beside them: ``system.poles()[1]``.
+        """
+        f = self.system.poles()[0]
+        return f if n is None else f[..., :n]
+
+
+@dataclass(frozen=True, eq=False)  # arrays: no elementwise == pretending to be equality
+class LumpedEarStaticResult:
+    """Static outputs of the lumped ear (:meth:`LumpedEar.static`), SI units.
+
+    Attributes
+    ----------
+    outputs : (4,) or (n_design, 4), in :data:`OUTPUTS` order: umbo (m), stapes (m), α, β (rad)
+    pressure_pa : the ear-canal pressure (Pa) they are for
+    """
+
+    outputs: np.ndarray
+    pressure_pa: float = 1.0
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        """One output (:data:`OUTPUTS`): a float array, 0-d for one design."""
+        return self.outputs[..., OUTPUTS.index(name)]
+
+    def to_dict(self) -> dict:
+        """The outputs by name (floats for one design, lists for many) and ``pressure_pa``."""
+
+        def plain(v):
+            a = np.asarray(v, dtype=float)
+            return float(a) if a.ndim == 0 else a.tolist()
+
+        return {k: plain(self[k]) for k in OUTPUTS} | {"pressure_pa": float(self.pressure_pa)}
 
 
 def ear_model(

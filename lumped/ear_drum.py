@@ -25,12 +25,11 @@ modes exactly at each frequency onto the other coordinates (a diagonal Schur
 complement, design-independent) and solves only a small system per design: the
 cost grows with n, not with n³.
 
-Why a dynamic residual (the residual is a coordinate with its own mass, as the one-shape
-drum's w): measured on the default drum against the FE ear's rigid-joint harmonic solves
-(published damping, 90 frequencies from 100 Hz to 12 kHz), with 40 modes it keeps the umbo and
-the stapes within 1 dB and 10° up to 6.6 kHz (worst 0.04 dB, 0.8° up to 5 kHz); the residual
-as a massless static correction (residual flexibility) only to 6.0 kHz (0.7 dB, 2.4°), and with
-20 modes 4.6 against 3.1 kHz. In both the agreement reaches about the highest kept mode.
+The residual is a coordinate with its own mass (a dynamic residual), as the one-shape drum's w.
+Against the FE ear's rigid-joint harmonic solves on the default drum (published damping), 40
+modes keep the umbo and the stapes within 1 dB and 10° up to 6.6 kHz; the agreement reaches
+about the highest kept mode (the residual as a massless correction, and 20 modes, compared:
+docs/history.md).
 """
 
 from __future__ import annotations

@@ -33,25 +33,20 @@ comes from two paths in parallel plus a series term:
   depends on the joint (:data:`PLATE_SUPPORT_EXPONENT`). Bonded, n = ¾: the gap
   grips the plate's face in shear too, the thick plate (60 µm over a 300 µm
   span) and the layer deform together, and the FE results ask for ¾ (a free
-  exponent fitted 0.73; without this term the held-out α error was 6.9 % (max),
-  with it 2.8 %). Sliding, n = ¼: the gap only pushes on the plate, which then
+  exponent fitted 0.73). Sliding, n = ¼: the gap only pushes on the plate, which then
   bends on it as a beam on an elastic foundation, whose characteristic length
-  (E I / k)^¼ gives s ∝ (E_gap/E_plate)^¼ (Hetényi 1946); refitted with ¼ on the
-  same FE designs, the held-out α error falls from 3.7 % to 3.1 % (docs/lumped.md §3.14).
+  (E I / k)^¼ gives s ∝ (E_gap/E_plate)^¼ (Hetényi 1946; docs/lumped.md §3.14).
 - load sharing between the two paths, w = k_gap k_cap / (k_gap + k_cap)² times
   f_share / (E_plate j_y j_x²): the plate carries the joint moment from the
   pedicle's root to two reactions in different places, the gap's under its
   face and the capsule's at its edges, and deforms between them. The term
   vanishes when either path carries the whole moment and is largest when they
-  share it equally. Without it the α residuals of the FE points form a V
-  against log(k_cap/k_gap): lumped α up to 3 % low where the paths share, high
-  where one dominates; with it they are flat and the held-out α error is 1.2 %.
+  share it equally. With it the α residuals of the FE points are flat against
+  log(k_cap/k_gap) (docs/lumped.md §3.3).
 - the pedicle's root under the joint moment, ∝ f_pf / (E_pedicle j_y j_x²): the joint moment
   enters the plate through the pedicle's footprint, and the plate's face there turns with the
-  root, so the face is stiffer when the pedicle is (docs/lumped.md §3.15). Over the whole
-  domain the α residuals of the certified surrogate correlate with log E_pedicle (0.46, the
-  strongest of the five moduli) and swing from −3.6 % to +3.9 % with it at a stiff gap; with
-  this term the near-minimax worst certified error over the domain falls from 3.7 % to 3.4 %.
+  root, so the face is stiffer when the pedicle is (docs/lumped.md §3.15; what led to it:
+  docs/history.md).
 
 Each term carries one dimensionless factor (``FACTOR_NAMES``), calibrated
 against FE results (``calibration``). The equations are written once, in plain

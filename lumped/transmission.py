@@ -132,8 +132,8 @@ def transmission(
     base = base or Materials()
     mats = [c.materials(base) for c in cases]
     moduli = {k: np.array([getattr(m, k) for m in mats]) for k in MODULI}
-    H = lm.ear(drum_modes=drum_modes, **ear_options, **moduli).freq_resp(f)  # (n_case, n_freq, 4)
-    rigid = lm.ear(rigid_joint=True, drum_modes=drum_modes, **ear_options).freq_resp(f)
+    H = lm.ear(drum_modes=drum_modes, **ear_options, **moduli)._freq_resp(f)  # (n_case, n_freq, 4)
+    rigid = lm.ear(rigid_joint=True, drum_modes=drum_modes, **ear_options)._freq_resp(f)
     H = np.moveaxis(H, 0, 1)  # (n_freq, n_case, 4)
     return TransmissionResult(
         freq_hz=f,
@@ -224,7 +224,7 @@ def pedicle_sensitivity(
     base = base or Materials()
     moduli = {k: np.full(2, getattr(base, k)) for k in MODULI}
     moduli["pedicle_e_pa"] = base.pedicle_e_pa * np.exp([-step, step])
-    H = lm.ear(drum_modes=drum_modes, **ear_options, **moduli).freq_resp(f)  # (2, n_freq, 4)
+    H = lm.ear(drum_modes=drum_modes, **ear_options, **moduli)._freq_resp(f)  # (2, n_freq, 4)
     d = (np.log(np.abs(H[1])) - np.log(np.abs(H[0]))) / (2 * step)
     st = lm.static(**moduli)
     return {

@@ -25,7 +25,7 @@ def sliding_step(ctx) -> tuple[dict, dict]:
     """α, β, β/α and the capsule's share of the joint's shear, per case and joint (FE), and the
     lumped model's α, β, β/α with the calibration of each joint (none for the layer)."""
     from isj.calibration.checks import lumped_static
-    from isj.fem.sliding import compare_cases
+    from isj.fem.model import compare_cases
 
     from isj.cases import THESIS_CASES
 

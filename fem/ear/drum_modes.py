@@ -40,10 +40,8 @@ from isj.ear import EarGeometry, EarMaterials
 from isj.errors import InvalidParameter
 
 from ..solvers import lanczos_start
-from .constraints import rigid_body_modes
-from .eardrum import ear_canal_load, eardrum_mesh
-from .middle_ear import DRUM_DENSITY_KG_M3, eardrum_geometry
-from .shell import NDOF, ShellMaterial, mass_matrix, stiffness_matrix
+from .lumped_params import clamped_drum
+from .middle_ear import DRUM_DENSITY_KG_M3
 
 #: Modes the shipped data (``lumped/data/default_drum_modes.json``) holds: on the default drum the
 #: lowest 240 reach 24.9 kHz, past the 20 kHz of ``isj ear sweep``; the lowest 40, 6.1 kHz.
@@ -73,9 +71,9 @@ def drum_modes(
 
     - ``freq_hz`` (N,): the modes' natural frequencies with the manubrium held (Hz), ascending;
     - ``coupling`` (N, 6): ΨᵀMφ_j, each mode's mass coupling with the body's unit (u, θ)
-      (kg^½ per m, kg^½·m per rad);
+        (kg^½ per m, kg^½·m per rad);
     - ``load_per_pa`` (N,): φ_jᵀf, each mode's generalized force per Pa (N·kg^-½/Pa); by
-      reciprocity its volume displacement per unit modal coordinate;
+        reciprocity its volume displacement per unit modal coordinate;
     - ``residual_compliance_m3_per_pa``: fᵀr, the residual's volume displacement per Pa (m³/Pa);
     - ``residual_mass_kg_m4``: r̂ᵀMr̂ of the residual scaled to unit volume, r̂ = r/(fᵀr) (kg/m⁴);
     - ``residual_cross_mass`` (6,): ΨᵀMr̂ (kg/m², kg/m);
@@ -84,40 +82,20 @@ def drum_modes(
     Each mode's sign makes its load ≥ 0 (its largest coupling > 0 when the load vanishes), so
     that the data are reproducible.
     """
-    from scipy.sparse.linalg import LinearOperator, eigsh, splu
+    from scipy.sparse.linalg import LinearOperator, eigsh
 
     if isinstance(n_modes, bool) or not isinstance(n_modes, int | np.integer) or n_modes < 1:
         raise InvalidParameter(f"n_modes = {n_modes!r}: must be an integer >= 1")
-    g = geometry or EarGeometry()
     m = materials or EarMaterials()
-    mesh = eardrum_mesh(eardrum_geometry(g, mesh_size_m))
-    shell = ShellMaterial(m.drum_e_pa, m.drum_nu, m.drum_thickness_m, density_kg_m3)
-    K = stiffness_matrix(mesh.nodes_m, mesh.triangles, shell).tocsr()
-    M = mass_matrix(mesh.nodes_m, mesh.triangles, shell).tocsr()
-    f = ear_canal_load(mesh, 1.0)  # N per Pa; f · u = volume displacement (m³), medial positive
+    # the clamped drum and its six constraint modes (Guyan), those of fem.ear.lumped_params
+    drum = clamped_drum(geometry, m, mesh_size_m, density_kg_m3)
+    K, M, f, free, lu = drum.stiffness, drum.mass, drum.load, drum.free, drum.lu
+    x_ref, psi = drum.reference_m, drum.constraint_modes
     n = K.shape[0]
-
-    def dofs(nodes):
-        nodes = np.unique(np.asarray(nodes, dtype=np.int64))
-        return (NDOF * nodes[:, None] + np.arange(NDOF)).ravel(), nodes
-
-    ring, _ = dofs(mesh.node_sets["ring"])
-    manu, manu_nodes = dofs(mesh.node_sets["manubrium"])
-    fixed = np.zeros(n, dtype=bool)
-    fixed[ring] = True
-    fixed[manu] = True
-    free = np.flatnonzero(~fixed)
     if not n_modes < free.size - 1:
         raise InvalidParameter(f"n_modes = {n_modes!r}: must be < {free.size - 1} (the drum's free dofs)")
     Kff = K[free][:, free].tocsc()
     Mff = M[free][:, free].tocsc()
-    lu = splu(Kff)
-
-    # the six constraint modes (Guyan), as fem.ear.lumped_params does
-    x_ref = np.asarray(g.body_reference_m, dtype=float)
-    psi = np.zeros((n, 6))
-    psi[manu] = rigid_body_modes(mesh.nodes_m[manu_nodes], x_ref)
-    psi[free] = -lu.solve(np.asarray(K[free] @ psi))
 
     # the fixed-interface modes: shift-invert about 0 with the interior's own factor
     opinv = LinearOperator(Kff.shape, matvec=lu.solve, dtype=float)

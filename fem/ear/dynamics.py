@@ -46,14 +46,17 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from isj.cavities import DEFAULT_CAVITIES, cavity_factor, check_cavities
 from isj.damping import Damping, resolve, warn_rayleigh_band
 from isj.design import Materials
 from isj.ear import EarMasses, EarMaterials
 from isj.errors import InvalidParameter
 from isj.kinematics import rigid_mass
+from isj.responses import FrequencyResponse
 from isj.validate import check_frequencies
 
 from ..dynamics import region_weighted_data
+from ..solvers import lanczos_start, make_complex_symmetric_solver, make_indefinite_solver, make_solver
 from .constraints import rigid_body_modes
 from .shell import ShellMaterial
 from .shell import mass_matrix as shell_mass_matrix
@@ -61,10 +64,6 @@ from .shell import mass_matrix as shell_mass_matrix
 #: Output names, as :data:`lumped.ear.OUTPUTS`: umbo along its static direction (m/Pa), stapes
 #: piston (m/Pa), α and β (rad/Pa; zero for the rigid joint).
 OUTPUTS = ("umbo_m", "stapes_m", "alpha_rad", "beta_rad")
-
-
-#: The ear's damping: :class:`isj.damping.Damping` (its old name here).
-EarDamping = Damping
 
 
 def damping_parts(model) -> tuple[str, ...]:
@@ -300,11 +299,9 @@ class EarHarmonicResult:
         """:meth:`outputs` as an :class:`isj.responses.FrequencyResponse` (m, m, rad, rad).
 
         At the ear-canal pressure amplitude :attr:`pressure_pa` (Pa; 1: per Pa), the outputs
-        and their order those of :meth:`isj.lumped.ear.LumpedEar.response`, so the two compare
-        name by name.
+        and their order those of :meth:`isj.lumped.ear.LumpedEar.frequency_response`, so the two
+        compare name by name.
         """
-        from isj.responses import FrequencyResponse
-
         units = ("m", "m", "rad", "rad")
         return FrequencyResponse(
             self.freq_hz, self.outputs(), OUTPUTS, units, input_amplitude=self.pressure_pa
@@ -328,10 +325,11 @@ def harmonic(
     freq_hz,
     materials: Materials | None = None,
     ear_materials: EarMaterials | None = None,
-    damping: EarDamping | None = None,
+    damping: Damping | None = None,
     masses: EarMasses | None = None,
     pressure_pa: float = 1.0,
     keep_displacement: bool = False,
+    cavities: str = DEFAULT_CAVITIES,
 ) -> EarHarmonicResult:
     """Damped harmonic response of the whole ear to ``pressure_pa`` (Pa) of ear-canal pressure.
 
@@ -345,15 +343,16 @@ def harmonic(
         per part and the cat cochlear resistance, docs/dynamics.md §4.3)
     masses : :class:`isj.ear.EarMasses` (estimates)
     keep_displacement : keep the full complex dof vectors (n_freq, n_full)
+    cavities : "open" (default) or "intact": the middle-ear cavities' back pressure on the drum
+        (:mod:`isj.cavities`, docs/circuit.md §13.3); the static solution stays the open ear's
 
     Returns
     -------
     :class:`EarHarmonicResult`, per Pa when ``pressure_pa`` = 1. One complex factorization
     per frequency (its analysis shared by all frequencies).
     """
-    from isj.fem.solvers import make_complex_symmetric_solver, make_indefinite_solver
-
     freqs = check_frequencies(freq_hz)
+    check_cavities(cavities)
     if not np.isfinite(pressure_pa):
         raise InvalidParameter(f"pressure_pa = {pressure_pa!r} Pa: must be a finite number")
     damping = resolve(damping)
@@ -402,6 +401,8 @@ def harmonic(
         if solver is not None:
             solver.free()
     t3 = time.perf_counter()
+    if cavities != "open" and pressure_pa != 0:  # fᵀq per Pa: the drum's volume displacement
+        q *= cavity_factor(freqs, q @ model.load_reduced / pressure_pa, cavities)[:, None]
     u = (model.T @ q.T).T  # (n_freq, n_full)
     drum_umbo = model.drum.node_sets["umbo"][0]
     fp_centre = model.footplate.node_sets["centre"][0]
@@ -456,8 +457,6 @@ def natural_frequencies(
     masses: EarMasses | None = None,
 ) -> EarModes:
     """The ``n`` lowest natural frequencies of K_r q = ω² M_r q (shift-invert Lanczos about 0)."""
-    from isj.fem.solvers import lanczos_start, make_solver
-
     if isinstance(n, bool) or not isinstance(n, int | np.integer) or not 1 <= n < model.n_dofs - 1:
         raise InvalidParameter(f"n = {n!r}: must be an integer in [1, {model.n_dofs - 2}]")
     K = model.stiffness(materials, ear_materials)

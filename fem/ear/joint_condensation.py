@@ -24,11 +24,10 @@ rest through those bodies' twelve dofs B. So u_J = Ψ x_B + Φ z, with Ψ = −K
 static condensation and Φ a few interior vectors (:func:`condense_joint`): the inertia of the
 static shapes, K_JJ⁻¹ (M_JJ Ψ + M_JB), and the next one; the first-order change of the
 condensation with each region's loss factor, K_JJ⁻¹ (K_r,JJ Ψ + K_r,JB); and the inertia of those.
-Statics are exact for real moduli. Measured against full harmonic solves on the coarse test ear
-(P2, resolution 0.35; published damping, 1 Hz – 20 kHz): Ψ with the inertia vectors alone left α
-3.5 % and β 6 % off (the joint's loss factor 0.15 against the bone's 0.01 changes the joint's own
-deformation, which a real static shape cannot follow); with the loss-factor vectors 1.7e-4 and
-8.9e-4; with all four kinds 7e-5 and 8e-5, the stapes 2e-7.
+Statics are exact for real moduli. The loss-factor vectors are needed because the joint's loss
+factor (0.15) differs from the bone's (0.01), which changes the joint's own deformation in a way
+no real static shape follows; with all four kinds the condensed ear matches full harmonic solves
+on the coarse test ear to about 1e-4 in α and β (the measurements: docs/history.md).
 """
 
 from __future__ import annotations
@@ -227,8 +226,8 @@ def orthonormalize(X: np.ndarray, weights: np.ndarray, tol: float = 1e-10, again
     ``weights``: per dof, √ of the mass matrix's diagonal (√kg for a translation, √(kg·m²) for a
     rotation): a kinetic-energy-like scale that puts metres and radians on one footing. Not the
     stiffness inner product: the drum's drilling rotations make K's condition number ≈ 1e16,
-    and a K-orthonormal basis built in floating point lost the response's span (measured: 10-300 %
-    errors on the coarse ear). Columns are normalised, orthogonalised against ``against`` (already
+    and a K-orthonormal basis built in floating point loses the response's span (docs/history.md).
+    Columns are normalised, orthogonalised against ``against`` (already
     orthonormal, in the same product) twice, then a column-pivoted QR keeps those whose pivot
     exceeds ``tol`` times the largest.
     """
@@ -406,9 +405,8 @@ def condense_joint(
 def one_blas_thread():
     """Run numpy's OpenBLAS on one thread inside the block (no-op where it cannot be found).
 
-    The per-frequency solves are many small dense operations; on the two shared cores, OpenBLAS's
-    two threads made them 10-100× slower than one (measured: a 216 × 216 complex solve 124 ms
-    against 1.0 ms, the Schur products 38 ms against 4.7 ms, under a load of 4).
+    The per-frequency solves are many small dense operations, for which OpenBLAS's threads on a
+    loaded machine cost far more than they gain (docs/history.md).
     """
     lib = _openblas()
     if lib is None:

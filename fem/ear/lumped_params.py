@@ -39,7 +39,10 @@ numbers (a dict whose keys are the fields of ``lumped.ear.EardrumParameters``).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
+import scipy.sparse as sp
 
 from isj.ear import EarGeometry, EarMaterials
 
@@ -60,6 +63,75 @@ def nominal_axis(g: EarGeometry) -> tuple[np.ndarray, np.ndarray]:
     q = 0.5 * (np.asarray(g.incudal_lateral_m) + np.asarray(g.incudal_medial_m))
     d = q - p
     return p, d / np.linalg.norm(d)
+
+
+@dataclass(frozen=True, eq=False)  # arrays: no elementwise == pretending to be equality
+class ClampedDrum:
+    """The FE pars tensa with its ring clamped and its manubrium as the interface (SI).
+
+    Attributes
+    ----------
+    mesh : the drum's shell mesh (:func:`fem.ear.eardrum.eardrum_mesh`)
+    stiffness, mass : K and M of the whole shell (CSR; N/m, kg)
+    load : f, the nodal forces of 1 Pa of ear-canal pressure (N/Pa); f · u is the volume
+        displacement (m³), medial positive
+    free : the dofs neither on the ring nor on the manubrium
+    lu : the sparse LU factor of K on ``free`` (``scipy.sparse.linalg.splu``)
+    reference_m : (3,) the body's reference point (u, θ refer to it)
+    constraint_modes : (n_dof, 6) Ψ, the drum's static shape when the manubrium moves by each
+        unit body dof (u, θ) at ``reference_m``, no pressure (Guyan)
+    """
+
+    mesh: object
+    stiffness: sp.csr_matrix
+    mass: sp.csr_matrix
+    load: np.ndarray
+    free: np.ndarray
+    lu: object
+    reference_m: np.ndarray
+    constraint_modes: np.ndarray
+
+
+def clamped_drum(
+    geometry: EarGeometry | None = None,
+    materials: EarMaterials | None = None,
+    mesh_size_m: float = 0.25e-3,
+    density_kg_m3: float = DRUM_DENSITY_KG_M3,
+) -> ClampedDrum:
+    """Mesh and assemble the drum shell, clamp its ring and build its six constraint modes.
+
+    The one assembly of :func:`eardrum_parameters` and :func:`fem.ear.drum_modes.drum_modes`;
+    parameters as theirs.
+    """
+    from scipy.sparse.linalg import splu  # scipy.sparse.linalg: only when a drum is measured
+
+    g = geometry or EarGeometry()
+    m = materials or EarMaterials()
+    mesh = eardrum_mesh(eardrum_geometry(g, mesh_size_m))
+    shell = ShellMaterial(m.drum_e_pa, m.drum_nu, m.drum_thickness_m, density_kg_m3)
+    K = stiffness_matrix(mesh.nodes_m, mesh.triangles, shell).tocsr()
+    M = mass_matrix(mesh.nodes_m, mesh.triangles, shell).tocsr()
+    f = ear_canal_load(mesh, 1.0)  # N per Pa; f · u = volume displacement (m³), medial positive
+    n = K.shape[0]
+
+    def dofs(nodes):
+        nodes = np.unique(np.asarray(nodes, dtype=np.int64))
+        return (NDOF * nodes[:, None] + np.arange(NDOF)).ravel(), nodes
+
+    ring, _ = dofs(mesh.node_sets["ring"])
+    manu, manu_nodes = dofs(mesh.node_sets["manubrium"])
+    fixed = np.zeros(n, dtype=bool)
+    fixed[ring] = True
+    fixed[manu] = True
+    free = np.flatnonzero(~fixed)
+    lu = splu(K[free][:, free].tocsc())
+
+    # six constraint modes: the manubrium moved by the body's unit (u, θ) at its reference point
+    x_ref = np.asarray(g.body_reference_m, dtype=float)
+    psi = np.zeros((n, 6))
+    psi[manu] = rigid_body_modes(mesh.nodes_m[manu_nodes], x_ref)
+    psi[free] = -lu.solve(np.asarray(K[free] @ psi))
+    return ClampedDrum(mesh, K, M, f, free, lu, x_ref, psi)
 
 
 def eardrum_parameters(
@@ -85,35 +157,12 @@ def eardrum_parameters(
     ``drum_mass_kg``) and, for information, the nominal-axis figures at the umbo:
     ``area_m2``, ``stiffness_n_m``, ``coupled_mass_kg``, ``umbo_arm_m``.
     """
-    from scipy.sparse.linalg import splu
-
     g = geometry or EarGeometry()
     m = materials or EarMaterials()
-    mesh = eardrum_mesh(eardrum_geometry(g, mesh_size_m))
-    shell = ShellMaterial(m.drum_e_pa, m.drum_nu, m.drum_thickness_m, density_kg_m3)
-    K = stiffness_matrix(mesh.nodes_m, mesh.triangles, shell).tocsr()
-    M = mass_matrix(mesh.nodes_m, mesh.triangles, shell).tocsr()
-    f = ear_canal_load(mesh, 1.0)  # N per Pa; f · u = volume displacement (m³), medial positive
+    drum = clamped_drum(g, m, mesh_size_m, density_kg_m3)
+    mesh, K, M, f, free, lu = drum.mesh, drum.stiffness, drum.mass, drum.load, drum.free, drum.lu
+    x_ref, psi = drum.reference_m, drum.constraint_modes
     n = K.shape[0]
-
-    def dofs(nodes):
-        nodes = np.unique(np.asarray(nodes, dtype=np.int64))
-        return (NDOF * nodes[:, None] + np.arange(NDOF)).ravel(), nodes
-
-    ring, _ = dofs(mesh.node_sets["ring"])
-    manu, manu_nodes = dofs(mesh.node_sets["manubrium"])
-    fixed = np.zeros(n, dtype=bool)
-    fixed[ring] = True
-    fixed[manu] = True
-    free = np.flatnonzero(~fixed)
-    Kff = K[free][:, free].tocsc()
-    lu = splu(Kff)
-
-    # six constraint modes: the manubrium moved by the body's unit (u, θ) at its reference point
-    x_ref = np.asarray(g.body_reference_m, dtype=float)
-    psi = np.zeros((n, 6))
-    psi[manu] = rigid_body_modes(mesh.nodes_m[manu_nodes], x_ref)
-    psi[free] = -lu.solve(np.asarray(K[free] @ psi))
     # the uncoupled shape: unit pressure, manubrium held, scaled to a unit volume displacement
     phi = np.zeros(n)
     phi[free] = lu.solve(f[free])

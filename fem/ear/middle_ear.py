@@ -1,7 +1,7 @@
 """The whole cat middle ear, static, with the 3-D pedicle-and-joint model inside (docs/ear.md §5).
 
 >>> ear = MiddleEarModel(joint=PedicleJointModel(order=2))   # doctest: +SKIP
->>> res = ear.solve(Materials())                             # per Pa of ear-canal pressure
+>>> res = ear.static(Materials())                            # per Pa of ear-canal pressure
 >>> res.footplate_m_per_pa, res.alpha_rad_per_pa             # doctest: +SKIP
 
 Parts and their dofs (one full vector, SI units):
@@ -28,7 +28,7 @@ superstructure is then part of the malleus–incus body (small and fast).
 
 Dynamics (mass from :class:`isj.ear.EarMasses`, docs/dynamics.md §4.3 damping, harmonic response per
 Pa, natural frequencies): :mod:`fem.ear.dynamics`, also as :meth:`MiddleEarModel.mass`,
-:meth:`MiddleEarModel.harmonic` and :meth:`MiddleEarModel.natural_frequencies`.
+:meth:`MiddleEarModel.frequency_response` and :meth:`MiddleEarModel.natural_frequencies_hz`.
 
 Everything that does not depend on the moduli is built once: meshes, the
 constraint map T, the pattern of Tᵀ K T and the map from the entries' values
@@ -43,11 +43,16 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.sparse as sp
 
+from isj.cases import THESIS_CASES
 from isj.design import Materials
 from isj.ear import EarGeometry, EarMasses, EarMaterials
 
+from ..sliding import tied_nodes
+from ..solvers import make_solver
 from .constraints import rigid_body_modes
+from .dynamics import harmonic, natural_frequencies, reduced_mass
 from .eardrum import EardrumGeometry, ear_canal_load, eardrum_mesh
 from .elimination import ConstraintBuilder, ReducedPattern
 from .footplate import FOOTPLATE_DENSITY_KG_M3, footplate_mesh
@@ -211,8 +216,7 @@ class MiddleEarModel:
                 coef = np.einsum("ji,pjk->pik", R, point_map(self.joint_points_m[nodes], x_m))  # Rᵀ G
                 cb.tie(_node_block_dofs(nodes, 3, self.off_joint), master, coef.reshape(-1, 6))
             if getattr(joint, "joint", "bonded") == "sliding":  # docs/model.md §2.12: the cut gap–plate
-                from isj.fem.sliding import tied_nodes  # face keeps u_z (the joint's z) continuous
-
+                # the face keeps u_z (the joint's z) continuous
                 gap, plate = tied_nodes(joint.space, joint.geometry)
                 for gn, pn in zip(gap, plate, strict=True):
                     cb.tie([self.off_joint + 3 * gn + 2], [self.off_joint + 3 * pn + 2], [[1.0]])
@@ -334,8 +338,6 @@ class MiddleEarModel:
 
     def full_stiffness(self, materials: Materials | None = None, ear_materials: EarMaterials | None = None):
         """Unconstrained K (n_full × n_full, CSR) with the ground springs, before elimination (for tests)."""
-        import scipy.sparse as sp
-
         vals = [self._fixed_values(ear_materials or EarMaterials())]
         rows, cols = self._fixed_entries()
         if self.joint is not None:
@@ -353,15 +355,13 @@ class MiddleEarModel:
 
     def solve_reduced(self, K, f_reduced) -> np.ndarray:
         """Full dof vector(s) u = T q with K q = f_reduced, reusing the solver's analysis."""
-        from isj.fem.solvers import make_solver
-
         if self._solver is None:
             self._solver = make_solver(K, self._solver_name)
         self._solver.factor(K)
         q = self._solver.solve(f_reduced)
         return self.T @ np.asarray(q).reshape(self.n_dofs, -1)
 
-    def solve(
+    def static(
         self, materials: Materials | None = None, ear_materials: EarMaterials | None = None
     ) -> EarStaticResult:
         """Static response per Pa of uniform ear-canal pressure (pushing the drum medially).
@@ -427,23 +427,7 @@ class MiddleEarModel:
         self, materials: Materials | None = None, ear_materials: EarMaterials | None = None, masses=None
     ):
         """Reduced mass Tᵀ M T (CSR, SI) on the stiffness's pattern (:func:`.dynamics.reduced_mass`)."""
-        from .dynamics import reduced_mass
-
         return reduced_mass(self, materials, ear_materials, masses)
-
-    def harmonic(
-        self,
-        freq_hz,
-        materials: Materials | None = None,
-        ear_materials: EarMaterials | None = None,
-        damping=None,
-        masses=None,
-        pressure_pa: float = 1.0,
-    ):
-        """Damped response per Pa at ``freq_hz`` (Hz): :func:`fem.ear.dynamics.harmonic`."""
-        from .dynamics import harmonic
-
-        return harmonic(self, freq_hz, materials, ear_materials, damping, masses, pressure_pa)
 
     def frequency_response(
         self,
@@ -453,31 +437,35 @@ class MiddleEarModel:
         damping=None,
         masses=None,
         pressure_pa: float = 1.0,
+        cavities: str = "open",
     ):
-        """:meth:`harmonic` as an :class:`isj.responses.FrequencyResponse`: umbo, stapes (m), α, β (rad).
+        """Damped umbo, stapes (m), α and β (rad) at ``freq_hz`` (Hz), a ``FrequencyResponse``.
 
         At the ear-canal pressure amplitude ``pressure_pa`` (Pa; 1: per Pa); the outputs of
-        :meth:`isj.lumped.ear.LumpedEar.response`, name by name.
+        :meth:`isj.lumped.ear.LumpedEar.frequency_response`, name by name. The solve and the
+        full displacements: :func:`fem.ear.dynamics.harmonic`. ``cavities``: "open" or "intact",
+        the middle-ear cavities' load (docs/circuit.md §13.3).
         """
-        return self.harmonic(freq_hz, materials, ear_materials, damping, masses, pressure_pa).response()
+        return harmonic(
+            self, freq_hz, materials, ear_materials, damping, masses, pressure_pa, cavities=cavities
+        ).response()
 
-    def natural_frequencies(
+    def natural_frequencies_hz(
         self,
         n: int = 6,
         materials: Materials | None = None,
         ear_materials: EarMaterials | None = None,
         masses=None,
-    ):
-        """The ``n`` lowest natural frequencies (Hz), modes (:func:`.dynamics.natural_frequencies`)."""
-        from .dynamics import natural_frequencies
+    ) -> np.ndarray:
+        """The ``n`` lowest undamped natural frequencies (Hz), ascending.
 
-        return natural_frequencies(self, n, materials, ear_materials, masses)
+        The mode shapes beside them: :func:`fem.ear.dynamics.natural_frequencies`.
+        """
+        return natural_frequencies(self, n, materials, ear_materials, masses).freq_hz
 
     def solve_cases(
         self, cases=None, ear_materials: EarMaterials | None = None
     ) -> dict[str, EarStaticResult]:
         """Results for named joint materials (default: the seven thesis cases), one assembly reused."""
-        from isj.cases import THESIS_CASES
-
         cases = THESIS_CASES if cases is None else cases
-        return {c.name: self.solve(c.materials(), ear_materials) for c in cases}
+        return {c.name: self.static(c.materials(), ear_materials) for c in cases}

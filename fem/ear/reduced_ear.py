@@ -24,24 +24,27 @@ against direct solves at 100 Hz, 1.4 kHz and 20 kHz is 4.7e-5 in magnitude and 0
 
 The reduced parts are projected once; any damping (a dictionary of η, a, b per part, the
 cochlear impedance, :class:`isj.damping.Damping`) is then a sum of projected parts and one
-dense complex solve per frequency (:meth:`ReducedEar.solve`).
+dense complex solve per frequency (:meth:`ReducedEar.frequency_response`).
 """
 
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from isj.cavities import DEFAULT_CAVITIES, cavity_factor, check_cavities
 from isj.design import Materials
 from isj.ear import EarMasses, EarMaterials
 from isj.errors import InvalidParameter
+from isj.responses import FrequencyResponse
 from isj.validate import check_frequencies
 
+from .dynamics import harmonic
 from .joint_condensation import (
     CondensedEar,
     condense_joint,
@@ -52,13 +55,14 @@ from .joint_condensation import (
     orthonormalize,
     part_coefficients,
 )
+from .middle_ear import MiddleEarModel
 from .shell import NDOF
 
 #: Shell parts condensed by :func:`shell_basis` (each one stiffness and one mass part, so one
 #: loss factor, one Rayleigh pair: proportional damping inside it).
 SHELLS = ("eardrum", "footplate")
 
-#: Outputs of :meth:`ReducedEar.response`, per Pa of ear-canal pressure, and their units.
+#: Outputs of :meth:`ReducedEar.frequency_response`, per Pa of ear-canal pressure, and their units.
 OUTPUTS = (
     "stapes_velocity_m_s",
     "umbo_velocity_m_s",
@@ -186,6 +190,40 @@ def footplate_fit(fp, geometry) -> np.ndarray:
     return np.linalg.solve(A.T @ (w[:, None] * A), (w[:, None] * A).T)
 
 
+@dataclass(eq=False)  # arrays: no elementwise == pretending to be equality
+class ReducedEarStaticResult:
+    """Undamped static response of the reduced ear per Pa of ear-canal pressure (SI).
+
+    Attributes
+    ----------
+    umbo_vector_m_per_pa : (3,) the umbo's translation (m/Pa), ear frame
+    footplate_m_per_pa : (3,) the footplate centre's translation (m/Pa), ear frame
+    footplate_fit_per_pa : (3,) the footplate's piston (m/Pa) and rocking about its long and short
+        axes (rad/Pa), :func:`footplate_fit`
+    alpha_rad_per_pa, beta_rad_per_pa : the joint model's α and β (rad/Pa); None for the rigid joint
+    """
+
+    umbo_vector_m_per_pa: np.ndarray
+    footplate_m_per_pa: np.ndarray
+    footplate_fit_per_pa: np.ndarray
+    alpha_rad_per_pa: float | None
+    beta_rad_per_pa: float | None
+
+    def to_dict(self) -> dict:
+        """JSON-able: vectors as lists, α and β as floats (None for the rigid joint)."""
+
+        def plain(v):
+            return None if v is None else float(v)
+
+        return {
+            "umbo_vector_m_per_pa": [float(v) for v in self.umbo_vector_m_per_pa],
+            "footplate_m_per_pa": [float(v) for v in self.footplate_m_per_pa],
+            "footplate_fit_per_pa": [float(v) for v in self.footplate_fit_per_pa],
+            "alpha_rad_per_pa": plain(self.alpha_rad_per_pa),
+            "beta_rad_per_pa": plain(self.beta_rad_per_pa),
+        }
+
+
 @dataclass
 class ReducedEar:
     """The whole ear projected on a real basis V, part by part (module docstring); SI units.
@@ -201,6 +239,9 @@ class ReducedEar:
     n_kept : coordinates before the shells' modal interior ones
     diagonal_interior : whether every part is diagonal on the interior coordinates (checked)
     info : sizes and seconds of the reduction
+    cavities : "open" (default) or "intact": the middle-ear cavities' load on the drum, a uniform
+        back pressure Z_cav U (:mod:`isj.cavities`, docs/circuit.md §13.3), applied to every
+        frequency response; the static response is the open ear's
     """
 
     stiffness: dict
@@ -215,6 +256,16 @@ class ReducedEar:
     n_kept: int = 0
     diagonal_interior: bool = False
     info: dict = field(default_factory=dict)
+    cavities: str = DEFAULT_CAVITIES
+
+    def with_cavities(self, cavities: str) -> ReducedEar:
+        """The same reduced ear with the cavities ``cavities`` ("open" or "intact"); no new reduction."""
+        return replace(self, cavities=check_cavities(cavities))
+
+    def drum_volume_m3(self, freq_hz, damping=None) -> np.ndarray:
+        """The drum's net volume displacement fᵀu per Pa of ear-canal pressure (m³/Pa, medial
+        positive; f the drum's nodal force per Pa), complex (n_freq,), with this ear's cavities."""
+        return self._solve(freq_hz, damping) @ self.load
 
     @property
     def n_dofs(self) -> int:
@@ -226,7 +277,7 @@ class ReducedEar:
     def total_mass(self) -> np.ndarray:
         return sum(self.mass.values())
 
-    def solve(self, freq_hz, damping=None, chunk: int = 16) -> np.ndarray:
+    def _solve(self, freq_hz, damping=None, chunk: int = 16) -> np.ndarray:
         """Reduced coordinates (n_freq, m) of Z(ω) y = Vᵀ f, Z from ``damping``'s part factors.
 
         The shells' interior coordinates are modal (:func:`reduced_ear`): there Z is diagonal and
@@ -243,6 +294,8 @@ class ReducedEar:
         y = np.zeros((freqs.size, self.n_dofs), complex)
         with one_blas_thread():
             self._solve_chunks(w, A0, A1, M, d, k, y, chunk)
+        if check_cavities(self.cavities) != "open":  # Vᵀf · y: the drum's volume displacement
+            y *= cavity_factor(freqs, y @ self.load, self.cavities)[:, None]
         return y
 
     def _solve_chunks(self, w, A0, A1, M, d, k, y, chunk) -> None:
@@ -258,10 +311,11 @@ class ReducedEar:
             y[i : i + chunk, :k] = y1
             y[i : i + chunk, k:] = (f2[None] - (y1[:, None, :] @ Z12)[:, 0]) / z
 
-    def static(self) -> dict:
-        """Undamped static response per Pa: umbo vector (3,), footplate centre (3,), fit (3,), α, β."""
+    def static(self) -> ReducedEarStaticResult:
+        """Undamped static response per Pa: umbo and footplate centre vectors, footplate fit, α, β."""
         y = np.linalg.solve(self.total_stiffness(), self.load)
-        return self._split(self.rows @ y)
+        d = self._split(self.rows @ y)
+        return ReducedEarStaticResult(d["umbo_vector"], d["footplate"], d["fit"], d["alpha"], d["beta"])
 
     def _split(self, out) -> dict:
         out = np.asarray(out)
@@ -270,16 +324,16 @@ class ReducedEar:
         d["beta"] = out[..., 10] if self.has_joint else None
         return d
 
-    def outputs(self, freq_hz, damping=None) -> np.ndarray:
+    def _outputs(self, freq_hz, damping=None) -> np.ndarray:
         """(n, 4) complex: umbo (along its static direction), stapes piston (m/Pa), α, β (rad/Pa),
         the columns of :meth:`fem.ear.dynamics.EarHarmonicResult.outputs`."""
         return self._columns(freq_hz, damping)[0][:, [3, 2, 7, 8]]
 
     def _columns(self, freq_hz, damping):
         freqs = check_frequencies(freq_hz)
-        s = self.static()
-        d_umbo = s["umbo_vector"] / np.linalg.norm(s["umbo_vector"])
-        o = self._split(self.solve(freqs, damping) @ self.rows.T)
+        s = self.static().umbo_vector_m_per_pa
+        d_umbo = s / np.linalg.norm(s)
+        o = self._split(self._solve(freqs, damping) @ self.rows.T)
         x_st = o["footplate"] @ self.piston_direction
         x_um = o["umbo_vector"] @ d_umbo
         iw = 2j * np.pi * freqs
@@ -291,7 +345,7 @@ class ReducedEar:
         cols = [iw * x_st, iw * x_um, x_st, x_um, o["fit"][:, 0], o["fit"][:, 1], o["fit"][:, 2], a, b, share]
         return np.column_stack(cols), freqs
 
-    def response(self, freq_hz, damping=None):
+    def frequency_response(self, freq_hz, damping=None):
         """The field's quantities per Pa of ear-canal pressure (:data:`OUTPUTS`, :data:`UNITS`).
 
         H_V = ``stapes_velocity_m_s`` (the footplate centre's velocity along the piston direction,
@@ -300,15 +354,11 @@ class ReducedEar:
         (zero for the rigid joint) and the pedicle's share β/(α+β) of the incus-to-stapes
         relative rotation (NaN for the rigid joint). An :class:`isj.responses.FrequencyResponse`.
         """
-        from isj.responses import FrequencyResponse
-
         H, freqs = self._columns(freq_hz, damping)
         return FrequencyResponse(freqs, H, OUTPUTS, UNITS)
 
-    def natural_frequencies(self, n: int | None = None) -> np.ndarray:
+    def natural_frequencies_hz(self, n: int | None = None) -> np.ndarray:
         """Undamped natural frequencies (Hz) of the reduced model, ascending (the ``n`` lowest)."""
-        import scipy.linalg as sla
-
         w2 = sla.eigh(self.total_stiffness(), self.total_mass(), eigvals_only=True)
         f = np.sqrt(np.maximum(w2, 0.0)) / (2 * np.pi)
         return f if n is None else f[:n]
@@ -456,9 +506,9 @@ def check_against_direct(
     """
     freqs = check_frequencies(freq_hz)
     t0 = time.perf_counter()
-    direct = model.harmonic(freqs, materials, ear_materials, damping, masses).outputs()
+    direct = harmonic(model, freqs, materials, ear_materials, damping, masses).outputs()
     t1 = time.perf_counter()
-    red = rom.outputs(freqs, damping)
+    red = rom._outputs(freqs, damping)
     names = ("umbo_m", "stapes_m", "alpha_rad", "beta_rad")[: 4 if rom.has_joint else 2]
     red, direct = red[:, : len(names)], direct[:, : len(names)]  # α, β are zero without the joint
     mag = np.abs(np.abs(red) / np.abs(direct) - 1)
@@ -514,15 +564,13 @@ def drum_mesh_convergence(
     against first), ``agree_up_to_hz``, ``tol_db``, ``drum_mesh_sizes_m``, ``n_dofs`` and
     ``seconds`` per mesh; with ``check_hz``, ``checks``: :func:`check_against_direct` per mesh.
     """
-    from .middle_ear import MiddleEarModel
-
     freqs = check_frequencies(freq_hz)
     h, n_dofs, secs, checks = [], [], [], []
     for size in drum_mesh_sizes_m:
         t0 = time.perf_counter()
         model = MiddleEarModel(joint=joint, drum_mesh_size_m=size)
         rom = reduced_ear(model, fmax_hz=float(freqs.max()), **reduce_kw)
-        h.append(rom.response(freqs, damping)["stapes_velocity_m_s"])
+        h.append(rom.frequency_response(freqs, damping)["stapes_velocity_m_s"])
         n_dofs.append(model.n_dofs)
         secs.append(time.perf_counter() - t0)
         if len(check_hz):  # each mesh's reduced model against its own direct solves

@@ -357,6 +357,8 @@ def traction_load(nodes_m, triangles, traction_pa) -> np.ndarray:
     ----------
     traction_pa : (3,) force per unit area (Pa), e.g. ``(0, 0, -ρ g t)`` for self-weight
 
+    Notes
+    -----
     Consistent with linear interpolation of the translations: A/3 of each facet's
     force to each corner; no nodal moments.
     """

@@ -19,7 +19,7 @@ import numpy as np
 from isj.damping import resolve, warn_rayleigh_band
 from isj.design import DEFAULT_PRESSURE_PA, REGIONS, Geometry, Materials
 from isj.lumped.dynamics import OUTPUTS as CHAIN_OUTPUTS
-from isj.lumped.dynamics import SecondOrderModel, chain_model, frequency_response
+from isj.lumped.dynamics import SecondOrderModel, chain_model, chain_outputs
 from isj.validate import check_band, check_frequencies
 
 #: What an FE harmonic solve hands back: per output name a complex array over the
@@ -145,7 +145,7 @@ class ChainSweep:
     def fe_checks(self, freq_hz, fe_response: FeResponse, outputs: Sequence[str] = CHAIN_OUTPUTS):
         """:class:`HarmonicComparison` of this chain with FE at ``freq_hz`` (Hz)."""
         return compare_harmonic(
-            freq_hz, outputs, lambda f: frequency_response(self.model, f, self.pressure_pa), fe_response
+            freq_hz, outputs, lambda f: chain_outputs(self.model, f, self.pressure_pa), fe_response
         )
 
 
@@ -201,7 +201,7 @@ def chain_sweep(
     return ChainSweep(
         model=model,
         freq_hz=freq,
-        response=frequency_response(model, freq, pressure_pa),
+        response=chain_outputs(model, freq, pressure_pa),
         pressure_pa=float(pressure_pa),
         natural_freq_hz=poles_hz,
         damping_ratio=zeta,
@@ -248,7 +248,7 @@ class EarSweep:
 
     def fe_checks(self, freq_hz, fe_response: FeResponse, outputs: Sequence[str] | None = None):
         """:class:`HarmonicComparison` of this ear with FE at ``freq_hz`` (Hz), per Pa."""
-        return compare_harmonic(freq_hz, outputs or self.outputs, self.model.freq_resp, fe_response)
+        return compare_harmonic(freq_hz, outputs or self.outputs, self.model._freq_resp, fe_response)
 
 
 def ear_sweep(
@@ -302,12 +302,12 @@ def ear_sweep(
         drum_modes=drum_modes or None,
         **region_moduli(materials or Materials()),
     )
-    poles_hz, zeta = lumped.natural_frequencies_hz()
+    poles_hz, zeta = lumped.system.poles()
     return EarSweep(
         model=lumped,
         freq_hz=freq,
-        response=lumped.freq_resp(freq),
-        static=lumped.static_response(),
+        response=lumped._freq_resp(freq),
+        static=lumped.static().outputs,
         natural_freq_hz=poles_hz,
         damping_ratio=zeta,
     )
