@@ -12,12 +12,13 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 from isj.calibration.adaptive import adaptive_calibration, adaptive_fit
-from isj.calibration.doe import DesignSpace, sample
+from isj.calibration.doe import sample
 from isj.calibration.guard import corner_designs
 from isj.lumped.artifact import Calibration, default_calibration
 from isj.lumped.model import FACTOR_NAMES, MODULI, Lever, equations, moduli_arrays
 
 from isj.design import DEFAULT_PRESSURE_PA, Geometry, Materials
+from isj.design_space import DesignSpace
 from isj.errors import InvalidParameter
 
 P = DEFAULT_PRESSURE_PA

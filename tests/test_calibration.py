@@ -6,12 +6,13 @@ import casadi  # noqa: F401 - a hard dependency: without it these tests fail, th
 import gmsh  # noqa: F401 - a hard dependency: without it these tests fail, they do not skip
 import numpy as np
 import pytest
-from isj.calibration.doe import DesignSpace
 from isj.calibration.pipeline import calibrate
 from isj.fem.batch import evaluate_design, fe_settings
-from isj.lumped.artifact import Calibration, CorruptCalibration, default_calibration
+from isj.lumped.artifact import Calibration, default_calibration
 
 from isj.cli import main
+from isj.design_space import DesignSpace
+from isj.errors import CorruptCalibration
 
 COARSE_FE = {"order": 2, "resolution": 0.5}
 # pedicle, gap and capsule moduli vary; plate and stapes stay at their defaults

@@ -277,7 +277,7 @@ def test_isolated_model_with_the_published_damping(coarse_model):
     hence each model at its own f1; docs/dynamics.md §4.9 has the default mesh, same frequencies.
     """
     from isj.lumped.artifact import default_calibration
-    from isj.lumped.dynamics import chain_model, frequency_response
+    from isj.lumped.dynamics import chain_model, chain_outputs
 
     m = Materials()
     f_fe, zeta = dynamics.modal_damping(coarse_model, m, Damping(), n=1)
@@ -298,7 +298,7 @@ def test_isolated_model_with_the_published_damping(coarse_model):
         cal.factor_array(), cal.shear_factor, None, m, **{f"{k}_e_pa": m.youngs(k) for k in REGIONS}
     )
     f_lu = chain.poles()[0][0]
-    lu = frequency_response(chain, r * f_lu, 1.0)[:, :2].T
+    lu = chain_outputs(chain, r * f_lu, 1.0)[:, :2].T
     lu_norm = np.abs(lu / lu[:, :1])
     np.testing.assert_allclose(lu_norm[:, :4], fe_norm[:, :4], rtol=0.02)
 
@@ -336,7 +336,9 @@ def test_report_config_damping_keys_resolve_and_list_every_value(tmp_path):
     ],
 )
 def test_report_config_bad_damping_is_one_line_naming_it(override, word):
-    from isj.reports.config import ConfigError, load_config
+    from isj.reports.config import load_config
+
+    from isj.errors import ConfigError
 
     with pytest.raises(ConfigError) as exc:
         load_config(overrides=[override])

@@ -32,9 +32,9 @@ _SOLVE = textwrap.dedent(
     from isj.fem.mesh import mesh_cantilever
     from isj.fem.model import PedicleJointModel
     model = PedicleJointModel(order=2, resolution=0.35)
-    res = model.solve()
+    res = model.static()
     mesh_cantilever(resolution=0.5, cache_dir=False)  # gmsh after the first factorization
-    again = model.solve(res.materials.replace(gap_e_pa=2e7))
+    again = model.static(res.materials.replace(gap_e_pa=2e7))
     print(res.alpha_rad.hex(), res.beta_rad.hex(), again.alpha_rad.hex(), again.beta_rad.hex())
     """
 )

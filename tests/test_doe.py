@@ -5,8 +5,9 @@ import math
 
 import numpy as np
 import pytest
-from isj.calibration.doe import DesignSpace, corners, grid, sample
+from isj.calibration.doe import corners, grid, sample
 
+from isj.design_space import DesignSpace
 from isj.errors import InvalidParameter
 
 SPACE = DesignSpace()

@@ -220,7 +220,7 @@ def test_bad_method_is_refused():
 def test_harmonic_reuses_the_static_ordering(coarse_model):
     """After a static solve the direct harmonic solve reuses its ordering; same answer either way."""
     m = Materials(pedicle_e_pa=3e9)
-    coarse_model.solve(m)
+    coarse_model.static(m)
     perm = coarse_model._solver.perm
     assert sorted(perm) == list(range(1, coarse_model.n_dofs + 1))
     fresh = copy.copy(coarse_model)  # no static solver: PARDISO orders the complex matrix itself

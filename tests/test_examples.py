@@ -10,7 +10,7 @@ uses, or a direct FE solve) or hold them to measured tolerances:
 - lumped_million: design 0's α, β from its printed moduli (1e-13: array and
   scalar exp/pow may round differently);
 - frequency_sweep: the FE harmonic check against ``harmonic_outputs`` (1e-8), the
-  lumped values bit for bit against ``chain_model``/``frequency_response``, the
+  lumped values bit for bit against ``chain_model``/``chain_outputs``, the
   dynamic amplification H(f)/H(0) of lumped and FE within 1 % (measured 0.18 % at
   5 kHz on the coarse mesh), the CSV read back bit for bit;
 - whole_ear: the lumped static values bit for bit against ``ear_model``; lumped vs
@@ -32,7 +32,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from isj.lumped.artifact import default_calibration
-from isj.lumped.dynamics import chain_model, frequency_response
+from isj.lumped.dynamics import chain_model, chain_outputs
 from isj.lumped.ear import ear_model
 from isj.lumped.model import MODULI, static_response
 
@@ -84,7 +84,7 @@ def test_every_example_is_tested():
 def test_solve_design(run, coarse_model):
     out = run("solve_design")  # P2, resolution 0.35: the coarse_model fixture's mesh
     design = isj.case_by_name("j5c20").materials()
-    fe = coarse_model.solve(design)
+    fe = coarse_model.static(design)
     assert f"{coarse_model.n_dofs} dofs" in out
     assert value(out, "fe alpha_rad") == pytest.approx(fe.alpha_rad, rel=1e-9)
     assert value(out, "fe beta_rad") == pytest.approx(fe.beta_rad, rel=1e-9)
@@ -124,7 +124,7 @@ def test_frequency_sweep(run, coarse_model, tmp_path):
     m, cal = isj.Materials(), default_calibration()
     fe = harmonic_outputs(coarse_model, [0.0, 5000.0], m)
     chain = chain_model(cal.factor_array(), cal.shear_factor, materials=m, **moduli(m))
-    lumped = frequency_response(chain, [0.0, 5000.0], isj.DEFAULT_PRESSURE_PA)  # the CLI's path
+    lumped = chain_outputs(chain, [0.0, 5000.0], isj.DEFAULT_PRESSURE_PA)  # the CLI's path
     for j, name in enumerate(("alpha_rad", "beta_rad")):
         printed_fe = value(out, f"fe {name}", complex)
         assert abs(printed_fe / fe[name][1] - 1) < 1e-8
@@ -135,14 +135,14 @@ def test_frequency_sweep(run, coarse_model, tmp_path):
     back = isj.FrequencyResponse.read_csv(csv)
     freq_hz = np.geomspace(100.0, 30e3, 200)
     assert np.array_equal(back.freq_hz, freq_hz)
-    assert np.array_equal(back.response[..., 0], frequency_response(chain, freq_hz, isj.DEFAULT_PRESSURE_PA))
+    assert np.array_equal(back.response[..., 0], chain_outputs(chain, freq_hz, isj.DEFAULT_PRESSURE_PA))
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
 def test_whole_ear(run):
     out = run("whole_ear")
     m = isj.Materials()
-    static = ear_model(default_calibration().factor_array(), **moduli(m)).static_response()
+    static = ear_model(default_calibration().factor_array(), **moduli(m)).static().outputs
     names = ("umbo_m_per_pa", "stapes_m_per_pa", "alpha_rad_per_pa", "beta_rad_per_pa")
     tolerances = dict(zip(names, (0.03, 0.03, 0.1, 0.03), strict=True))
     for j, (name, tol) in enumerate(tolerances.items()):
@@ -152,7 +152,7 @@ def test_whole_ear(run):
     rows = re.findall(r"^\s+(\d+\.\d)\s+(\d+\.\d+)\s+(\d+\.\d+)$", out, flags=re.M)
     assert len(rows) == 8 and float(rows[0][0]) == 100.0
     # 100 Hz: the static limit over the loss factors (ligaments 0.15–0.3, drum 0.1): a few % below it
-    at_100 = np.abs(ear_model(default_calibration().factor_array(), **moduli(m)).freq_resp([100.0])[0])
+    at_100 = np.abs(ear_model(default_calibration().factor_array(), **moduli(m))._freq_resp([100.0])[0])
     assert float(rows[0][1]) * 1e-9 == pytest.approx(at_100[0], rel=1e-3)
     assert float(rows[0][2]) * 1e-9 == pytest.approx(at_100[1], rel=1e-3)
     assert 0.9 < at_100[0] / static[0] < 1 and 0.9 < at_100[1] / static[1] < 1
@@ -174,7 +174,7 @@ def test_custom_calibration(run, coarse_model, tmp_path):
     designs = isj.sample(space, prov["validation_samples"], seed=prov["seeds"]["validation"], method="lhs")
     errors = []
     for d in designs:  # FE solves here, not through the runner, the cache or the fit's error table
-        fe = coarse_model.solve(isj.Materials(**d))
+        fe = coarse_model.static(isj.Materials(**d))
         errors.append(abs(float(custom.static(d).alpha_rad) / fe.alpha_rad - 1))
     assert max(errors) == pytest.approx(held[0], rel=1e-3)  # printed with 5 digits
     centre = custom.static(space.mid())

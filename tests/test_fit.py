@@ -3,10 +3,11 @@
 import casadi  # noqa: F401 - a hard dependency: without it these tests fail, they do not skip
 import numpy as np
 import pytest
-from isj.calibration.fit import FitFailed, fit_factors
+from isj.calibration.fit import fit_factors
 from isj.lumped.model import FACTOR_NAMES, MODULI, Lever, equations
 
 from isj.design import Geometry
+from isj.errors import FitFailed
 
 
 def synthetic_records(factors, n=40, seed=3):

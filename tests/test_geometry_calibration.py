@@ -9,7 +9,6 @@ import pytest
 from isj.calibration.doe import (
     GEOMETRY_CLEARANCE_M,
     GEOMETRY_DOMAIN_M,
-    DesignSpace,
     GeometrySpace,
     mixed_corners,
     sample_with_geometry,
@@ -21,6 +20,7 @@ from isj.lumped.model import FACTOR_NAMES, Lever, equations, moduli_arrays
 
 from isj.cli import main
 from isj.design import Geometry
+from isj.design_space import DesignSpace
 from isj.errors import CorruptCalibration, OutOfDomainWarning
 
 

@@ -4,19 +4,20 @@ import json
 
 import numpy as np
 import pytest
-from isj.lumped.artifact import Calibration, CorruptCalibration, default_calibration
+from isj.lumped.artifact import Calibration, default_calibration
 from isj.lumped.dynamics import (
     COORDINATES,
     SecondOrderModel,
     chain_mass,
     chain_model,
+    chain_outputs,
     chain_stiffness,
-    frequency_response,
 )
 from isj.lumped.model import FACTOR_NAMES, Lever, static_response
 
 from isj.damping import Damping
 from isj.design import Geometry, Materials
+from isj.errors import CorruptCalibration
 
 
 def sdof(m=2e-9, c=3e-5, k=40.0, eta=0.0):
@@ -52,7 +53,7 @@ def test_static_limit_is_the_calibrated_static_model(shear):
         "plate_e_pa": np.array([1e9, 4e9, 3e8]),
         "stapes_e_pa": np.array([1e9, 3e8, 4e9]),
     }
-    dyn = frequency_response(chain_model(f, shear, damping="undamped", **moduli), [0.0], pressure_pa=28.5)
+    dyn = chain_outputs(chain_model(f, shear, damping="undamped", **moduli), [0.0], pressure_pa=28.5)
     st = static_response(f, pressure_pa=28.5, **moduli)
     assert np.allclose(dyn[:, 0, 0].real, st.alpha_rad, rtol=1e-12)
     assert np.allclose(dyn[:, 0, 1].real, st.beta_rad, rtol=1e-12)
@@ -60,7 +61,7 @@ def test_static_limit_is_the_calibrated_static_model(shear):
     # one loss factor everywhere, given per region: the static response divided by (1 + iη)
     eta = dict.fromkeys(("stapes", "gap", "plate", "pedicle", "incus", "capsule"), 0.07)
     chain = chain_model(f, shear, damping="undamped", loss_factor=eta, **moduli)
-    dyn = frequency_response(chain, [0.0], 28.5)
+    dyn = chain_outputs(chain, [0.0], 28.5)
     np.testing.assert_allclose(dyn[:, 0, 0], st.alpha_rad / (1 + 0.07j), rtol=1e-11)
     np.testing.assert_allclose(dyn[:, 0, 1], st.beta_rad / (1 + 0.07j), rtol=1e-11)
 
@@ -210,7 +211,7 @@ def test_low_frequency_roll_off_matches_fe(coarse_model, damping):
     fe = coarse_model.angles[:2] @ u.T  # rows α, β; columns frequencies
     cal = default_calibration()
     chain = chain_model(cal.factor_array(), cal.shear_factor, damping=damping)
-    lum = frequency_response(chain, [0.0, 1000.0], 1.0)
+    lum = chain_outputs(chain, [0.0, 1000.0], 1.0)
     for i in range(2):
         ratio_fe = fe[i, 1] / fe[i, 0]
         ratio_lum = lum[1, i] / lum[0, i]

@@ -7,20 +7,21 @@ import json
 
 import numpy as np
 import pytest
-from isj.calibration.doe import DesignSpace, sample
+from isj.calibration.doe import sample
 from isj.calibration.pipeline import calibrate_dynamics, error_stats, records_for_fit, settings_joint
 from isj.calibration.runner import design_key, run_designs
 from isj.fem import batch
 from isj.lumped.api import LumpedModel
-from isj.lumped.artifact import Calibration, CorruptCalibration, default_calibration, sliding_calibration
+from isj.lumped.artifact import Calibration, default_calibration, sliding_calibration
 from isj.lumped.model import MODULI
 
 from isj.cases import THESIS_CASES
 from isj.design import Materials
-from isj.errors import InvalidParameter
+from isj.design_space import DesignSpace
+from isj.errors import CorruptCalibration, InvalidParameter
 
 #: FE α and β (µrad) of the seven thesis cases, bonded and sliding, at the default pressure, P2 on
-#: the default mesh (resolution 1): the table of docs/model.md §2.12 (isj.fem.sliding.compare_cases).
+#: the default mesh (resolution 1): the table of docs/model.md §2.12 (isj.fem.model.compare_cases).
 FE_CASES_URAD = {
     #        bonded α, β       sliding α, β
     "base": ((1.708, 11.41), (1.702, 11.43)),
@@ -97,7 +98,7 @@ def test_bonded_and_sliding_never_share_a_cache_entry(tmp_path):
     # each record is its joint's FE model, bit for bit (the joint reached the model)
     for j, rec in recs.items():
         model = PedicleJointModel(order=1, resolution=0.35, joint=j)
-        res = model.solve(Materials(**design), settings[j]["pressure_pa"])
+        res = model.static(Materials(**design), settings[j]["pressure_pa"])
         assert rec["result"]["alpha_rad"] == res.alpha_rad
         assert rec["result"]["beta_rad"] == res.beta_rad
     assert recs["bonded"]["result"]["alpha_rad"] != recs["sliding"]["result"]["alpha_rad"]

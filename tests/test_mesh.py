@@ -6,11 +6,12 @@ import numpy as np
 import pytest
 from isj.fem import cache as cache_mod
 from isj.fem import mesh as mesh_mod
-from isj.fem.cache import CacheWarning, cache_key, default_cache_dir
+from isj.fem.cache import cache_key, default_cache_dir
 from isj.fem.geometry import MeshSizes
-from isj.fem.mesh import MeshError, TetMesh, mesh_cantilever, mesh_pedicle_joint
+from isj.fem.mesh import TetMesh, mesh_cantilever, mesh_pedicle_joint
 
 from isj.design import REGIONS, Geometry
+from isj.errors import CacheWarning, MeshError
 
 G = Geometry()
 SLEEVED = ("stapes", "gap", "plate")

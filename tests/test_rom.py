@@ -8,7 +8,6 @@ The effectivities (bound ÷ error) are printed (``pytest -s``) and must be ≥ 1
 import json
 import subprocess
 import sys
-import time
 
 import numpy as np
 import pytest
@@ -46,7 +45,7 @@ def rom(rom_cache, fe):
 def _fe_outputs(fe, rom, E, pressure=1.0):
     rows = []
     for e in E:
-        r = fe.solve(rom.space.materials(e), pressure)
+        r = fe.static(rom.space.materials(e), pressure)
         rows.append([r.alpha_rad, r.beta_rad, r.sum_rad, r.ratio])
     return np.array(rows)
 
@@ -155,9 +154,10 @@ def test_min_theta_is_the_coercivity_constant(fe, rom):
 
 def test_residual_norm_is_accurate_at_small_residuals(fe, rom):
     """‖R c‖ (representers orthonormalised) tracks the true dual norm where cᵀGc loses every digit."""
-    from isj.fem.rom.domain import DesignSpace
     from isj.fem.rom.offline import Greedy
     from isj.fem.rom.online import _solve, residual_coefficients, residual_norm
+
+    from isj.design_space import DesignSpace
 
     space = DesignSpace()
     g = Greedy(fe, space)
@@ -188,8 +188,9 @@ def test_residual_norm_is_accurate_at_small_residuals(fe, rom):
 def test_representers_within_their_error_radius(fe):
     """Every stored representer Q R_j (five solved, one derived from Σ θ̄_r X⁻¹A_r v = v) is X⁻¹ of its
     term within its radius η_j, against an independent solver (SuperLU)."""
-    from isj.fem.rom.domain import DesignSpace
     from isj.fem.rom.offline import REFINE_EVERY, Greedy
+
+    from isj.design_space import DesignSpace
 
     space = DesignSpace()
     g = Greedy(fe, space)
@@ -210,12 +211,13 @@ def test_representers_within_their_error_radius(fe):
 
 
 def test_domain_is_the_shipped_calibrations():
-    from isj.fem.rom.domain import CALIBRATION_DOMAIN_PA, RANGED
     from isj.lumped.artifact import default_calibration
+
+    from isj.design_space import RANGED, DesignSpace
 
     dom = default_calibration().domain
     assert set(dom) == set(RANGED)
-    assert {k: tuple(v) for k, v in dom.items()} == CALIBRATION_DOMAIN_PA
+    assert {k: tuple(v) for k, v in dom.items()} == DesignSpace().bounds
 
 
 def test_outputs_scale_with_pressure(rom):
@@ -235,13 +237,10 @@ def test_designs_outside_the_domain_are_refused(rom):
     assert np.all(np.isfinite(rom.evaluate(corners)["alpha_rad"]))  # the faces themselves are inside
 
 
-def test_thesis_cases_fast_with_bounds(fe, rom):
-    t0 = time.perf_counter()
+def test_thesis_cases_with_bounds(fe, rom):
     rows = rom.cases()
-    elapsed = time.perf_counter() - t0
     assert [r["case"] for r in rows] == ["base", "j5", "c20", "c100", "j5c20", "p12", "p3"]
-    assert elapsed < 0.1
-    base = fe.solve(
+    base = fe.static(
         rom.space.materials(
             [rows[0][k] for k in ("pedicle_e_pa", "gap_e_pa", "capsule_e_pa", "plate_e_pa", "stapes_e_pa")]
         )
@@ -253,9 +252,12 @@ def test_thesis_cases_fast_with_bounds(fe, rom):
 def test_cache_round_trip_and_damaged_entry(rom_cache, rom):
     from isj.fem.rom import reduced_model, rom_cache_dir
 
-    t0 = time.perf_counter()
+    def stamps():
+        return {p: (p.stat().st_ino, p.stat().st_mtime_ns) for p in rom_cache_dir().rglob("*") if p.is_file()}
+
+    stored = stamps()
     again = reduced_model(order=ORDER, resolution=RESOLUTION)
-    assert time.perf_counter() - t0 < 5  # loaded, not rebuilt
+    assert stamps() == stored  # loaded: no entry written or replaced, so nothing was rebuilt
     E = rom.space.sample(64, seed=3)
     assert np.array_equal(again.evaluate(E)["beta_rad"], rom.evaluate(E)["beta_rad"])
     # a small surrogate of its own, damaged on disk: reported, deleted, rebuilt to the same numbers
@@ -306,7 +308,7 @@ def test_cli_solve_json_keys(rom_cache, rom):
         "pressure_pa",
     ):
         assert k in d
-    ref = rom.solve(gap_e_pa=2e7)
+    ref = rom.static(gap_e_pa=2e7).to_dict()
     assert d["alpha_rad"] == ref["alpha_rad"] and d["n_dofs"] == ref["n_dofs"]
     cases = _isj(
         "rom", "cases", "--order", str(ORDER), "--resolution", str(RESOLUTION), "--json", env_dir=rom_cache

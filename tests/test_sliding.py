@@ -148,7 +148,7 @@ def test_bonded_default_is_unchanged(coarse_model):
 
     m = PedicleJointModel(order=2, resolution=0.35, joint="bonded")
     assert isinstance(m.reduction, R) and m.mesh.content_hash() == coarse_model.mesh.content_hash()
-    a, b = coarse_model.solve(), m.solve()
+    a, b = coarse_model.static(), m.static()
     assert (a.alpha_rad, a.beta_rad, a.alpha_ls_rad) == (b.alpha_rad, b.beta_rad, b.alpha_ls_rad)
 
 
@@ -157,7 +157,7 @@ def test_sliding_interface_is_tied_in_z_only(sliding_model):
 
     m = sliding_model
     g, p = tied_nodes(m.space, m.geometry)
-    u = m.solve().displacement_m
+    u = m.static().displacement_m
     assert np.array_equal(u[g, 2], u[p, 2])  # normal displacement continuous, exactly
     jump = np.abs(u[g, 0] - u[p, 0]).max()
     assert jump > 0.01 * np.abs(u[p, 0]).max()  # tangential free: the faces slide
@@ -169,7 +169,7 @@ def test_seven_cases_bonded_against_sliding(coarse_model, sliding_model, layer_m
     rise = {}
     for case in THESIS_CASES:
         m = case.materials()
-        res = {j: model.solve(m) for j, model in (("b", coarse_model), ("s", sliding_model), ("l", layer))}
+        res = {j: model.static(m) for j, model in (("b", coarse_model), ("s", sliding_model), ("l", layer))}
         w = {}
         for j, model in (("b", coarse_model), ("s", sliding_model), ("l", layer)):
             r = res[j]
@@ -226,10 +226,10 @@ def test_layer_shear_modulus_interpolates(coarse_model, layer_model):
     try:
         for g in (mu, 1e5, default):
             layer_model.layer_shear_pa = g
-            a.append(layer_model.solve().alpha_rad)
+            a.append(layer_model.static().alpha_rad)
     finally:
         layer_model.layer_shear_pa = default
-    assert a[0] == pytest.approx(coarse_model.solve().alpha_rad, rel=1e-10)
+    assert a[0] == pytest.approx(coarse_model.static().alpha_rad, rel=1e-10)
     assert a[0] < a[1] < a[2]
 
 

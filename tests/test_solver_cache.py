@@ -28,7 +28,7 @@ ORDER, RESOLUTION = 1, 0.35
 
 def _solve(cache_dir):
     model = PedicleJointModel(order=ORDER, resolution=RESOLUTION, cache_dir=cache_dir)
-    res = model.solve(Materials(gap_e_pa=7e6))
+    res = model.static(Materials(gap_e_pa=7e6))
     return model, res
 
 
@@ -53,7 +53,7 @@ def test_cached_ordering_same_bits_in_another_process(tmp_path):
     code = (
         "import json, sys; from isj.fem.model import PedicleJointModel; from isj.design import Materials; "
         f"m = PedicleJointModel(order={ORDER}, resolution={RESOLUTION}, cache_dir=sys.argv[1]); "
-        "r = m.solve(Materials(gap_e_pa=7e6)); "
+        "r = m.static(Materials(gap_e_pa=7e6)); "
         "print(json.dumps([r.alpha_rad.hex(), r.beta_rad.hex(), int(m._solver._ps.iparm[4])]))"
     )
     out = subprocess.run(

@@ -27,7 +27,7 @@ def lm():
 def test_thevenin_split_gives_the_full_solve(lm):
     ear = lm.ear(drum_modes=40)
     lp = load_path(ear, np.r_[0.0, FREQ])
-    full = ear.freq_resp(np.r_[0.0, FREQ])[:, 2:]  # at 0 Hz with the loss factors' i η K
+    full = ear._freq_resp(np.r_[0.0, FREQ])[:, 2:]  # at 0 Hz with the loss factors' i η K
     np.testing.assert_allclose(lp["q"], full, rtol=1e-9, atol=1e-12 * np.abs(full).max())
     # the joint's own part is the calibrated coupling: real and positive along the motion at 0 Hz
     assert lp["k_joint"][0].real > 0 and lp["k_env"][0].real > 0
@@ -66,7 +66,7 @@ def test_delta_hv_tends_to_one_as_the_joint_stiffens(lm):
 
 def test_hv_is_i_omega_times_the_stapes_displacement(lm):
     r = transmission(FREQ, THESIS_CASES[:2], model=lm, drum_modes=40)
-    x = lm.ear(drum_modes=40).freq_resp(FREQ)[:, 1]
+    x = lm.ear(drum_modes=40)._freq_resp(FREQ)[:, 1]
     np.testing.assert_allclose(r.stapes_velocity[:, 0], 2j * np.pi * FREQ * x, rtol=1e-12)
     assert r.delta_db.shape == (FREQ.size, 2)
     np.testing.assert_allclose(np.abs(r.pedicle_share), np.abs(r.beta_rad / (r.alpha_rad + r.beta_rad)))
@@ -81,8 +81,8 @@ def test_sensitivity_at_low_frequency_is_the_static_one(lm):
     s = pedicle_sensitivity([1e-3], model=lm, drum_modes=None, damping="undamped")
     e = Materials().pedicle_e_pa
     h = 0.05
-    lo = lm.ear(pedicle_e_pa=e * np.exp(-h), damping="undamped").static_response()
-    hi = lm.ear(pedicle_e_pa=e * np.exp(h), damping="undamped").static_response()
+    lo = lm.ear(pedicle_e_pa=e * np.exp(-h), damping="undamped").static().outputs
+    hi = lm.ear(pedicle_e_pa=e * np.exp(h), damping="undamped").static().outputs
     static = (np.log(abs(hi[3])) - np.log(abs(lo[3]))) / (2 * h)
     assert s["ear_beta"][0] == pytest.approx(static, rel=1e-6)
     # the isolated model is force-driven: β follows the pedicle far more than inside the ear

@@ -113,7 +113,7 @@ def test_strain_energy_per_region_sums_to_half_the_work(files):
 
     msh, toml = files
     model = UserMeshModel(read_mesh(msh), order=1, points=read_points(toml))
-    res = model.solve(Materials(), 28.5)
+    res = model.static(Materials(), 28.5)
     work = 0.5 * float(model.unit_load @ res.displacement_m.ravel()) * 28.5
     assert sum(res.strain_energy_j.values()) == pytest.approx(work, rel=1e-9)
 
@@ -249,11 +249,11 @@ def test_gmsh_41_tetra10_file_in_micrometres(capsys, tmp_path):
     """What a user's gmsh script writes: format 4.1, second order, µm; α and β as built in."""
     import gmsh
     from isj.fem.geometry import build_pedicle_joint
-    from isj.fem.mesh import DEFAULT_GEOMETRY, _configure, _resolve
+    from isj.fem.mesh import DEFAULT_GEOMETRY, _configure, _resolve, initialize_gmsh
     from isj.fem.user_model import default_points, points_toml
 
     path = tmp_path / "own.msh"
-    gmsh.initialize(readConfigFiles=False, interruptible=False)
+    initialize_gmsh(gmsh)
     try:
         _configure(gmsh)
         gmsh.model.add("own")

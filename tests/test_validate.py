@@ -40,7 +40,7 @@ def _lumped_ear(f):
     from isj.lumped.artifact import default_calibration
     from isj.lumped.ear import ear_model
 
-    return ear_model(default_calibration().factor_array()).freq_resp(f)
+    return ear_model(default_calibration().factor_array())._freq_resp(f)
 
 
 def _fe_chain(f):

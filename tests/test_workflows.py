@@ -18,10 +18,10 @@ from isj.calibration.checks import (
     warn_fe_settings,
     warn_outside_domain,
 )
-from isj.calibration.doe import DesignSpace
 from isj.lumped.artifact import default_calibration
 
 from isj.design import Materials
+from isj.design_space import DesignSpace
 from isj.errors import CalibrationWarning, InvalidParameter, OutOfDomainWarning
 from isj.studies.explore import (
     MAX_DESIGNS,
@@ -152,7 +152,7 @@ def test_explore_refuses_too_many_designs_before_allocating():
 def test_columns_from_unit_is_from_unit():
     space = DesignSpace()
     u = np.random.default_rng(1).random((33, 5))
-    cols, rows = space.columns_from_unit(u), space.from_unit(u)
+    cols, rows = space.columns_from_unit(u), space.designs_from_unit(u)
     assert all(cols[k][i] == r[k] for i, r in enumerate(rows) for k in space.names)
 
 
@@ -199,15 +199,15 @@ def test_harmonic_comparison_errors_are_complex():
 
 @pytest.mark.filterwarnings("ignore::isj.errors.DampingWarning")  # b = 2e-5 s: ωb > 0.5 above 4 kHz
 def test_chain_sweep_is_the_chain_model(cal):
-    from isj.lumped.dynamics import chain_model, frequency_response
+    from isj.lumped.dynamics import chain_model, chain_outputs
 
     m = Materials(gap_e_pa=20e6)
     f = np.geomspace(100, 5e3, 9)
     sw = chain_sweep(cal, f, m, rayleigh_b_s=2e-5, pressure_pa=50.0)
     moduli = {f"{r}_e_pa": m.youngs(r) for r in ("pedicle", "gap", "capsule", "plate", "stapes", "incus")}
     ref = chain_model(cal.factor_array(), cal.shear_factor, None, m, rayleigh_b_s=2e-5, **moduli)
-    assert np.array_equal(sw.response, frequency_response(ref, f, 50.0))
+    assert np.array_equal(sw.response, chain_outputs(ref, f, 50.0))
     assert np.array_equal(sw.natural_freq_hz, ref.poles()[0])
     # an FE response equal to the lumped one checks with zero error
-    comp = sw.fe_checks([300.0], lambda q: frequency_response(ref, q, 50.0))
+    comp = sw.fe_checks([300.0], lambda q: chain_outputs(ref, q, 50.0))
     assert comp.outputs == sw.outputs and np.all(comp.rel_error < 1e-14)
