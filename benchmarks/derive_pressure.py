@@ -21,10 +21,10 @@ from __future__ import annotations
 from pathlib import Path
 
 from isj.fem.convergence import richardson
-from isj.fem.export import atomic_write_json
 from isj.fem.geometry import MeshSizes
 from isj.fem.model import PedicleJointModel
 
+from isj.atomic import atomic_write_json
 from isj.cases import THESIS_BASE_SUM_RAD
 
 OUT = Path(__file__).resolve().parent / "results" / "pressure.json"
@@ -36,7 +36,7 @@ def series(field: str, key: str) -> dict:
     rows = []
     for h in EDGE_SIZES_M:
         m = PedicleJointModel(order=2, sizes=MeshSizes(**{field: h}))
-        r = m.solve(pressure_pa=PROBE_PA)
+        r = m.static(pressure_pa=PROBE_PA)
         rows.append({field: h, "n_dofs": m.n_dofs, "alpha_rad": r.alpha_rad, "beta_rad": r.beta_rad})
         print(
             f"  {field} = {h * 1e6:.0f} um: {m.n_dofs} dofs, alpha {r.alpha_rad * 1e6:.5f}, "

@@ -31,7 +31,7 @@ from isj.fem.dynamics import (
 )
 from isj.fem.model import PedicleJointModel
 from isj.lumped.artifact import default_calibration
-from isj.lumped.dynamics import chain_model, frequency_response
+from isj.lumped.dynamics import chain_model, chain_outputs
 
 from isj.damping import Damping
 from isj.design import Materials
@@ -43,11 +43,12 @@ def calibration_frequencies(cal, samples=16, validation=8, seed=100):
     The designs of ``isj calibrate`` (defaults: 16 Sobol training designs, seed 100; 8 Latin
     hypercube held-out ones, seed 101) from the calibration's domain and FE settings.
     """
-    from isj.calibration.doe import DesignSpace, sample
+    from isj.calibration.doe import sample
     from isj.calibration.runner import run_designs
     from isj.fem.batch import evaluate_modes, fe_settings
 
     from isj.caches import fe_cache_dir
+    from isj.design_space import DesignSpace
 
     space = DesignSpace.from_dict(cal.domain)
     sets = {
@@ -158,7 +159,7 @@ def main():
     best = np.inf
     for _ in range(5):
         t0 = time.perf_counter()
-        frequency_response(chain_model(f, h, **E), freq)
+        chain_outputs(chain_model(f, h, **E), freq)
         best = min(best, time.perf_counter() - t0)
     print(f"lumped sweep, 1000 frequencies x 100 designs: {best * 1e3:.1f} ms")
 
@@ -180,7 +181,7 @@ def main():
         lf, _ = chain.poles()
         checks = np.array([0.1, 0.3, 0.55, 0.8]) * fe_in[0]
         fe = harmonic_outputs(model, checks, m, Damping())
-        lum = frequency_response(chain, checks)
+        lum = chain_outputs(chain, checks)
         ea = np.abs(np.abs(lum[:, 0]) / np.abs(fe["alpha_rad"]) - 1).max()
         eb = np.abs(np.abs(lum[:, 1]) / np.abs(fe["beta_rad"]) - 1).max()
         e1, e2 = lf[0] / fe_in[0] - 1, lf[1] / fe_in[1] - 1

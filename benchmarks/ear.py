@@ -97,7 +97,7 @@ def sensitivity(base: EarGeometry) -> list[tuple[str, dict]]:
     cache: dict[EarGeometry, MiddleEarModel] = {}
     for label, g, mat in cases:
         model = cache.setdefault(g, MiddleEarModel(g))
-        r = model.solve(ear_materials=mat)
+        r = model.static(ear_materials=mat)
         print(_row(label, r) + f"  lever {g.lever_ratio:.2f}")
         out.append((label, r.to_dict() | {"lever_ratio": g.lever_ratio}))
     return out
@@ -119,15 +119,15 @@ def main() -> int:
         f"joint model: {joint.n_dofs} free dofs, built in {t1 - t0:.1f} s; whole ear: {ear.n_dofs} dofs, "
         f"pattern nnz {ear.pattern.nnz}, built in {t2 - t1:.1f} s ({ear.timings_s})"
     )
-    first = ear.solve()
-    again = ear.solve()
+    first = ear.static()
+    again = ear.static()
     print(
         f"first whole-ear solve (analysis included) {first.timings_s['total']:.2f} s; "
         f"next solve {again.timings_s['total']:.2f} s {again.timings_s}"
     )
     rigid = MiddleEarModel()
-    rigid.solve()
-    rr = rigid.solve()
+    rigid.static()
+    rr = rigid.static()
     print(f"rigid-joint variant: {rigid.n_dofs} dofs, solve {rr.timings_s['total']:.3f} s")
     report["timing"] = {
         "joint_build_s": t1 - t0,
@@ -170,8 +170,8 @@ def main() -> int:
     report["cases"] = {}
     for case in THESIS_CASES:
         mat = case.materials()
-        r = ear.solve(mat)
-        iso = joint.solve(mat)
+        r = ear.static(mat)
+        iso = joint.static(mat)
         a, b = r.alpha_rad_per_pa * 1e6, r.beta_rad_per_pa * 1e6
         print(
             f"{case.name:6s} {a:8.3f} {b:8.3f} {b / a:6.2f} | {a * SPL_100DB_PEAK_PA:8.3f} "

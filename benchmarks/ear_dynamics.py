@@ -24,7 +24,7 @@ from isj.lumped.ear import ear_model
 
 def run(label: str, model: MiddleEarModel, rigid_joint: bool, n_modes: int = 6) -> dict:
     t0 = time.perf_counter()
-    modes = model.natural_frequencies(n_modes)
+    modes = ed.natural_frequencies(model, n_modes)
     t_modes = time.perf_counter() - t0
     Mf = ed.full_mass(model)
     drum = []
@@ -37,13 +37,13 @@ def run(label: str, model: MiddleEarModel, rigid_joint: bool, n_modes: int = 6) 
     f1 = float(modes.freq_hz[0])
     freq = np.array([100.0, 1000.0, f1, 5000.0])
     t0 = time.perf_counter()
-    fe = model.harmonic(freq[:1]).outputs()
+    fe = model.frequency_response(freq[:1]).response[..., 0]
     t_one = time.perf_counter() - t0
-    fe = model.harmonic(freq).outputs()
-    lum = lumped.freq_resp(freq)
+    fe = model.frequency_response(freq).response[..., 0]
+    lum = lumped._freq_resp(freq)
     print(f"{label}: {model.n_dofs} dofs; natural frequencies (Hz, drum share of kinetic energy):")
     print("  " + ", ".join(f"{f:.0f} ({d:.2f})" for f, d in zip(modes.freq_hz, drum, strict=True)))
-    print("  lumped: " + ", ".join(f"{f:.0f}" for f in lumped.natural_frequencies_hz()[0][:4]) + " Hz")
+    print("  lumped: " + ", ".join(f"{f:.0f}" for f in lumped.natural_frequencies_hz(4)) + " Hz")
     rows = []
     for i, f in enumerate(freq):
         row = {"freq_hz": float(f)}
@@ -65,7 +65,7 @@ def run(label: str, model: MiddleEarModel, rigid_joint: bool, n_modes: int = 6) 
         "n_dofs": model.n_dofs,
         "natural_freq_hz": [float(f) for f in modes.freq_hz],
         "drum_energy_share": drum,
-        "lumped_natural_freq_hz": [float(f) for f in lumped.natural_frequencies_hz()[0]],
+        "lumped_natural_freq_hz": [float(f) for f in lumped.natural_frequencies_hz()],
         "response": rows,
         "timings_s": {"one_harmonic": t_one, "modes": t_modes},
     }

@@ -51,7 +51,7 @@ def main() -> None:
     rom = reduced_ear(model, fmax_hz=args.fmax_hz)
     t_build = time.perf_counter() - t0
     t0 = time.perf_counter()
-    H = rom.response(freqs)
+    H = rom.frequency_response(freqs)
     t_sweep = time.perf_counter() - t0
     chk = check_against_direct(model, rom, check_frequencies_hz(args.fmin_hz, args.fmax_hz, args.checks))
     t_direct = chk["direct_seconds_per_frequency"]

@@ -19,7 +19,7 @@ import json
 import sys
 from pathlib import Path
 
-from isj.calibration.doe import DesignSpace, GeometrySpace, mixed_corners, sample_with_geometry
+from isj.calibration.doe import GeometrySpace, mixed_corners, sample_with_geometry
 from isj.calibration.pipeline import (
     geometry_calibration_from_records,
     records_for_fit,
@@ -31,6 +31,7 @@ from isj.lumped.artifact import default_calibration
 from isj.lumped.model import PLATE_SUPPORT_LIMIT
 
 from isj.caches import fe_cache_dir
+from isj.design_space import DesignSpace
 
 ARTIFACT = Path(__file__).parents[1] / "lumped" / "data" / "geometry_calibration.json"
 

@@ -52,7 +52,9 @@ def _errors(cal, designs: list[dict], progress: bool = False):
 
 def fresh_check(cal, n: int, seed: int = 12345) -> None:
     """Errors on ``n`` designs that neither the fit nor its validation used."""
-    from isj.calibration.doe import DesignSpace, sample
+    from isj.calibration.doe import sample
+
+    from isj.design_space import DesignSpace
 
     designs = sample(DesignSpace.from_dict(cal.domain), n, seed, method="lhs")
     ea, eb, er = _errors(cal, designs, progress=True)

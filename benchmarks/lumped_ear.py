@@ -45,8 +45,8 @@ def main() -> int:
     args = ap.parse_args()
     report: dict = {}
 
-    fe_rigid = _fe(MiddleEarModel().solve())
-    fe_joint = _fe(MiddleEarModel(joint=PedicleJointModel(order=2, resolution=args.resolution)).solve())
+    fe_rigid = _fe(MiddleEarModel().static())
+    fe_joint = _fe(MiddleEarModel(joint=PedicleJointModel(order=2, resolution=args.resolution)).static())
     cases = {
         "rigid joint": (ear_model(rigid_joint=True), fe_rigid),
         f"embedded joint (FE resolution {args.resolution:g})": (ear_model(), fe_joint),
@@ -55,10 +55,10 @@ def main() -> int:
     }
     print("-- static, per Pa of ear-canal pressure: lumped, and relative to the FE whole ear")
     for label, (ear, fe) in cases.items():
-        y = ear.static_response()
+        y = ear.static().outputs
         print("FE " + _row(label, fe))
         print("   " + _row(label, y, fe))
-        f_n, zeta = ear.natural_frequencies_hz()
+        f_n, zeta = ear.system.poles()
         report[label] = {
             "lumped": y.tolist(),
             "fe": fe,
@@ -68,20 +68,20 @@ def main() -> int:
 
     ear = ear_model()
     f = np.geomspace(100, 20e3, 1000)
-    ear.freq_resp(f)
+    ear._freq_resp(f)
     t0 = time.perf_counter()
-    ear.freq_resp(f)
+    ear._freq_resp(f)
     t1 = time.perf_counter()
     gap = np.geomspace(1e6, 50e6, 1000)
     many = ear_model(gap_e_pa=gap)
     t2 = time.perf_counter()
-    many.freq_resp(f[::10])
+    many._freq_resp(f[::10])
     t3 = time.perf_counter()
     print(
         f"\n-- sweep: 1000 frequencies, one design {1e3 * (t1 - t0):.2f} ms; 1000 designs: assembly "
         f"{1e3 * (t2 - t1):.1f} ms, x 100 frequencies {1e3 * (t3 - t2):.0f} ms"
     )
-    f_n, zeta = ear.natural_frequencies_hz()
+    f_n, zeta = ear.system.poles()
     print(
         "-- natural frequencies (embedded joint, estimated masses): "
         + ", ".join(f"{v:.0f} Hz (zeta {z:.2f})" for v, z in zip(f_n, zeta, strict=True))

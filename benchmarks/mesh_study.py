@@ -17,10 +17,10 @@ import math
 from pathlib import Path
 
 from isj.fem.convergence import joint_study, richardson
-from isj.fem.export import atomic_write_json
 from isj.fem.geometry import DEFAULT_SIZES_M, MeshSizes
 from isj.fem.model import PedicleJointModel
 
+from isj.atomic import atomic_write_json
 from isj.cases import THESIS_N_TETS
 from isj.design import DEFAULT_PRESSURE_PA
 
@@ -50,7 +50,7 @@ def thesis_like(target_tets: int = THESIS_N_TETS):
             break
         lo, hi = (lo, h) if m.n_tets < target_tets else (h, hi)
     h, m = best
-    res = m.solve()
+    res = m.static()
     p = res.pressure_pa
     return {
         "element_size_m": h,

@@ -43,7 +43,7 @@ def main() -> int:
     joint = MiddleEarModel(joint=PedicleJointModel(order=2, resolution=args.resolution))
     rigid = MiddleEarModel(geometry=joint.geometry)
     t0 = time.perf_counter()
-    h_rigid = w * rigid.harmonic(FREQ_HZ).outputs()[:, 1]
+    h_rigid = w * rigid.frequency_response(FREQ_HZ).response[..., 0][:, 1]
     t_rigid = time.perf_counter() - t0
     print(
         f"rigid connection, direct FE ({t_rigid:.1f} s): |H_V| "
@@ -53,18 +53,18 @@ def main() -> int:
         )
     )
     rigid_rom = es.reduced_ear(rigid, fmax_hz=20e3)
-    h_rigid_rom = w * rigid_rom.outputs(FREQ_HZ)[:, 1]
+    h_rigid_rom = w * rigid_rom._outputs(FREQ_HZ)[:, 1]
     lumped = transmission(FREQ_HZ, [case_by_name(c) for c in args.cases])
     report = {"freq_hz": FREQ_HZ.tolist(), "rigid_hv_re_im": [[v.real, v.imag] for v in h_rigid], "cases": {}}
     for k, name in enumerate(args.cases):
         m = case_by_name(name).materials(Materials())
         t0 = time.perf_counter()
-        h = w * joint.harmonic(FREQ_HZ, materials=m).outputs()[:, 1]
+        h = w * joint.frequency_response(FREQ_HZ, materials=m).response[..., 0][:, 1]
         t_direct = time.perf_counter() - t0
         t0 = time.perf_counter()
         rom = es.reduced_ear(joint, m, fmax_hz=20e3)
         t_rom = time.perf_counter() - t0
-        h_rom = w * rom.outputs(FREQ_HZ)[:, 1]
+        h_rom = w * rom._outputs(FREQ_HZ)[:, 1]
         d_db, d_deg = db_deg(h / h_rigid)
         r_db, r_deg = db_deg((h_rom / h_rigid_rom) / (h / h_rigid))
         l_db, l_deg = lumped.delta_db[:, k], lumped.delta_deg[:, k]

@@ -16,7 +16,7 @@ import argparse
 import dataclasses
 
 import numpy as np
-from isj.calibration.doe import DesignSpace, sample
+from isj.calibration.doe import sample
 from isj.calibration.fit import fit_factors
 from isj.calibration.pipeline import error_stats, records_for_fit
 from isj.calibration.runner import run_designs
@@ -25,6 +25,7 @@ from isj.lumped.model import FACTOR_NAMES
 
 import isj
 from isj.caches import fe_cache_dir
+from isj.design_space import DesignSpace
 
 SPACE = DesignSpace(
     pedicle_e_pa=(3e9, 12e9),

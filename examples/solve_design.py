@@ -24,7 +24,7 @@ def main(argv=None) -> None:
 
     design = isj.case_by_name("j5c20").materials()
     model = isj.PedicleJointModel(order=args.order, resolution=args.resolution)  # the mesh is cached
-    fe = model.solve(design)
+    fe = model.static(design)
     lumped = isj.LumpedModel.default().static(design)
 
     print(f"mesh: P{args.order}, resolution {args.resolution:g}, {model.n_tets} tets, {model.n_dofs} dofs")

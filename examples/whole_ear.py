@@ -23,10 +23,10 @@ def main(argv=None) -> None:
     design = isj.Materials()
     joint = isj.PedicleJointModel(order=2, resolution=args.resolution)
     ear = isj.MiddleEarModel(joint=joint)
-    fe = ear.solve(design)
+    fe = ear.static(design)
     lumped = isj.LumpedModel.default()
     lumped_ear = lumped.ear(design)
-    static = dict(zip(("umbo", "stapes", "alpha", "beta"), lumped_ear.static_response(), strict=True))
+    static = dict(zip(("umbo", "stapes", "alpha", "beta"), lumped_ear.static().outputs, strict=True))
 
     print(f"FE ear: {ear.n_dofs} dofs; experiment umbo {EXPERIMENT_UMBO_M_PER_PA * 1e9:g} nm/Pa")
     rows = (
@@ -39,13 +39,13 @@ def main(argv=None) -> None:
         diff = v_lumped / v_fe - 1
         print(f"static {name}: fe = {v_fe!r}, lumped = {float(v_lumped)!r}, difference {diff:+.4f}")
 
-    sweep = lumped.ear_response(np.geomspace(100.0, 5000.0, 8), design)
+    sweep = lumped_ear.frequency_response(np.geomspace(100.0, 5000.0, 8))
     print("lumped ear sweep: freq_hz, |umbo| nm/Pa, |stapes| nm/Pa")
     for f, u, s in zip(sweep.freq_hz, sweep.magnitude("umbo_m"), sweep.magnitude("stapes_m"), strict=True):
         print(f"  {f:8.1f} {u * 1e9:8.3f} {s * 1e9:8.3f}")
 
     check = ear.frequency_response([500.0], design)
-    lu = lumped.ear_response([500.0], design)
+    lu = lumped_ear.frequency_response([500.0])
     for name in ("umbo_m", "stapes_m"):
         print(f"FE check at 500 Hz: {name} relative difference = {abs(lu[name][0] / check[name][0] - 1):.4e}")
 
