@@ -375,7 +375,7 @@ def ear_model(
         number for every part or a mapping name → value; None leaves it
     **moduli : the joint model's moduli (Pa), floats or broadcastable arrays (``lumped.model.MODULI``)
     """
-    g = geometry or EarGeometry()
+    g = (geometry or EarGeometry()).for_joint(joint_geometry or Geometry())
     jg = joint_geometry or Geometry()
     mat = ear_materials or EarMaterials()
     drum = (eardrum or DEFAULT_EARDRUM).with_modulus(mat.drum_e_pa)
@@ -386,7 +386,45 @@ def ear_model(
     dmp = resolve(
         damping, rayleigh_a_per_s=rayleigh_a_per_s, rayleigh_b_s=rayleigh_b_s, loss_factor=loss_factor
     )
-    g = g.for_joint(jg)  # any stack height the joint model accepts: the ear takes its length
+    _check_reference_points(g, drum, modes)
+    coupling = None
+    if not rigid_joint:
+        if factors is None:
+            from .artifact import default_calibration  # the shipped calibration: read when needed
+
+            factors = default_calibration().factor_array()
+        coupling = joint_coupling(factors, jg, joint=joint, **moduli)
+    frame = _frame(g, jg, body, coupling, 0 if modes is None else modes.n_modes)
+    # the modes (none: zeros): stiffness ω² m_s, mass coupling with the body, load
+    mode_terms = mode_blocks(modes, frame.body_map, frame.iw + 1, mode_scale(drum.mass))
+    parts, dash, K = _stiffness(frame, g, mat, drum, modes, mode_terms[0], dmp, coupling)
+    masses_by_part = _masses(frame, g, ms, drum, modes, mode_terms[1])
+    if coupling is not None:  # the joint's regions, for the damping per region
+        parts |= _joint_region_stiffness(frame, factors, jg, joint, moduli)
+    E_visc, K_loss = damping_terms(dmp, parts, masses_by_part, dash)
+    joint_terms = None
+    if coupling is not None:  # the joint's own share of K, E and K_loss, for the load-path analysis
+        E_j, L_j = damping_terms(dmp, {r: parts[r] for r in parts if r in REGIONS})
+        blk = (..., slice(frame.ia, frame.ia + 2), slice(frame.ia, frame.ia + 2))
+        joint_terms = (coupling.stiffness, E_j[blk], L_j[blk])
+    M = sum(masses_by_part.values())  # (nd, n, n)
+    Bq, C, d_umbo = _load_and_outputs(frame, g, drum, mode_terms[2], K)
+    single = coupling is None or all(np.ndim(v) == 0 for v in moduli.values())
+    Bb = np.broadcast_to(Bq, (frame.nd, frame.n, 1)).copy()
+    if single:
+        K, M, E_visc, K_loss = K[0], M[0], E_visc[0], K_loss[0]
+        Bb, C, d_umbo = Bb[0], C[0], d_umbo[0]
+        if joint_terms is not None:
+            joint_terms = tuple(np.broadcast_to(t, (frame.nd, 2, 2))[0] for t in joint_terms)
+    system = SecondOrderModel(M=M, E=E_visc, K=K, B=Bb, C=C, K_loss=K_loss)
+    modal = slice(frame.iw + 1, frame.n) if frame.n_modes else None
+    return LumpedEar(
+        system=system, coordinates=frame.names, umbo_direction=d_umbo, drum_modes=modal, joint=joint_terms
+    )
+
+
+def _check_reference_points(g: EarGeometry, drum: EardrumParameters, modes) -> None:
+    """The drum's parameters and modes must refer to the body's reference point."""
     x_b = np.asarray(g.body_reference_m, dtype=float)
     if np.linalg.norm(np.asarray(drum.reference_m) - x_b) > 1e-9:
         raise InvalidParameter(
@@ -394,14 +432,52 @@ def ear_model(
         )
     if modes is not None and np.linalg.norm(np.asarray(modes.reference_m) - x_b) > 1e-9:
         raise InvalidParameter(f"drum_modes.reference_m = {modes.reference_m!r}: must be {tuple(x_b)!r} m")
-    # the drum's uncoupled shape: the static one, or the residual of the kept modes
-    C_w, m_w, cross_w = (
-        (drum.compliance_m3_per_pa, drum.uncoupled_mass_kg_m4, drum.cross_mass)
-        if modes is None
-        else (modes.residual_compliance_m3_per_pa, modes.residual_mass_kg_m4, modes.residual_cross_mass)
-    )
 
-    # ---- coordinates: body, [alpha, beta], w
+
+@dataclasses.dataclass(frozen=True)
+class _Frame:
+    """The lumped ear's coordinates and the maps from them to the two bodies' motions.
+
+    ``names``: body coordinates, [α, β], the drum's shape w, its modes; ``ia``: α's index
+    (β at ia + 1); ``iw``: w's; ``body_map`` (6, n): the body's (u, θ) at its reference point;
+    ``stapes_map`` (nd, 6, n): the stapes's (u, θ) at the footplate's centre, per design ``nd``;
+    ``outline``: the annular springs' points on the footplate's rim.
+    """
+
+    names: tuple[str, ...]
+    ia: int
+    iw: int
+    n_modes: int
+    body_map: np.ndarray
+    stapes_map: np.ndarray
+    outline: np.ndarray
+    area_ring_m2: float
+
+    @property
+    def n(self) -> int:
+        return len(self.names)
+
+    @property
+    def nd(self) -> int:
+        return self.stapes_map.shape[0]
+
+    @property
+    def stapes_t(self) -> np.ndarray:
+        return np.swapaxes(self.stapes_map, -1, -2)
+
+    def on_body(self, K6) -> np.ndarray:
+        """A 6 × 6 matrix of the body's (u, θ) on the ear's coordinates, per design."""
+        return np.broadcast_to(self.body_map.T @ K6 @ self.body_map, (self.nd, self.n, self.n))
+
+    def on_stapes(self, F, k3x3) -> np.ndarray:
+        """Grounded springs of 3 × 3 stiffness ``k3x3`` at every outline point of the footplate."""
+        springs = grounded_springs(F, self.outline, np.broadcast_to(k3x3, (len(self.outline), 3, 3)))
+        return self.stapes_t @ springs @ self.stapes_map
+
+
+def _frame(g: EarGeometry, jg: Geometry, body: str, coupling, n_modes: int) -> _Frame:
+    """Coordinates: body (six, or one rotation about the nominal axis), [α, β], w, drum modes."""
+    x_b = np.asarray(g.body_reference_m, dtype=float)
     if body == "rigid":
         Jb = np.eye(6)
         names = list(BODY_COORDINATES)
@@ -410,12 +486,10 @@ def ear_model(
         Jb = np.concatenate([np.cross(e, x_b - p0), e])[:, None]
         names = ["th_axis"]
     nb = Jb.shape[1]
-    coupled = not rigid_joint
-    if coupled:
+    if coupling is not None:
         names += ["alpha", "beta"]
     names.append("w")
     iw = len(names) - 1
-    n_modes = 0 if modes is None else modes.n_modes
     names += [f"drum_{j + 1}" for j in range(n_modes)]
     n = len(names)
     ia = nb  # alpha, beta at ia, ia + 1
@@ -427,126 +501,123 @@ def ear_model(
     head = np.asarray(g.stapes_head_m, dtype=float)
     jy, jz = np.asarray(g.joint_y_direction), np.asarray(g.joint_z_direction)
     z_j = (jg.z_gap + jg.z_plate) / 2
-    if coupled:
-        from .artifact import default_calibration
-
-        if factors is None:
-            factors = default_calibration().factor_array()
-        coupling = joint_coupling(factors, jg, joint=joint, **moduli)
-    nd = coupling.stiffness.shape[0] if coupled else 1
+    nd = coupling.stiffness.shape[0] if coupling is not None else 1
     stapes_map = np.zeros((nd, 6, n))
     stapes_map[:, :3] = point_map(F, x_b)[0] @ body_map
     stapes_map[:, 3:] = body_map[3:]
-    if coupled:  # the stapes moves by −d relative to the incus, d = motion @ (α, β) (per design)
+    if coupling is not None:  # the stapes moves by −d relative to the incus, d = motion @ (α, β)
         jx = np.asarray(g.joint_x_direction, dtype=float)
         per_d = np.zeros((6, 2))  # stapes (u at F, θ) per unit d = (u_x at head + z_j ẑ, rotation)
         per_d[:3, 0] = -jx
         per_d[:3, 1] = -np.cross(jy, F - (head + z_j * jz))
         per_d[3:, 1] = -jy
         stapes_map[:, :, ia : ia + 2] = per_d @ coupling.motion
-    stapes_t = np.swapaxes(stapes_map, -1, -2)
 
-    # ---- stiffness, per part (the damping's parts: docs/dynamics.md §4.3)
-    pts = np.array([g.malleus_ligament_m, g.incudal_lateral_m, g.incudal_medial_m])
-    eye = np.eye(3)
-    k_mallear = np.array([mat.malleus_ligament_n_m / 3 * eye, 0 * eye, 0 * eye])
-    k_incudal = np.array([0 * eye, mat.incudal_lateral_n_m * eye, mat.incudal_medial_n_m * eye])
     nrm = np.asarray(g.piston_direction)
     long_m, short_m = g.footplate_semi_axes_m
     e_long = np.asarray(g.footplate_long_axis)
     e_short = np.cross(nrm, e_long)
     phi = 2 * np.pi * np.arange(g.annular_springs) / g.annular_springs
     outline = F + np.outer(long_m * np.cos(phi), e_long) + np.outer(short_m * np.sin(phi), e_short)
+    area_ring = np.pi * g.drum_semi_axis_manubrium_m * g.drum_semi_axis_transverse_m
+    return _Frame(tuple(names), ia, iw, n_modes, body_map, stapes_map, outline, area_ring)
+
+
+def _drum_shape(drum: EardrumParameters, modes):
+    """The drum's uncoupled shape w: the static one, or the residual of the kept modes."""
+    if modes is None:
+        return drum.compliance_m3_per_pa, drum.uncoupled_mass_kg_m4, drum.cross_mass
+    return modes.residual_compliance_m3_per_pa, modes.residual_mass_kg_m4, modes.residual_cross_mass
+
+
+def _stiffness(
+    frame: _Frame, g: EarGeometry, mat: EarMaterials, drum, modes, K_modes, dmp: Damping, coupling
+):
+    """Stiffness per part (the damping's parts: docs/dynamics.md §4.3), the cochlear dashpot, K."""
+    x_b = np.asarray(g.body_reference_m, dtype=float)
+    F = np.asarray(g.footplate_centre_m, dtype=float)
+    pts = np.array([g.malleus_ligament_m, g.incudal_lateral_m, g.incudal_medial_m])
+    eye = np.eye(3)
+    k_mallear = np.array([mat.malleus_ligament_n_m / 3 * eye, 0 * eye, 0 * eye])
+    k_incudal = np.array([0 * eye, mat.incudal_lateral_n_m * eye, mat.incudal_medial_n_m * eye])
+    nrm = np.asarray(g.piston_direction)
     k_ann = mat.annular_out_of_plane_n_m * np.outer(nrm, nrm) + mat.annular_in_plane_n_m * (
         np.eye(3) - np.outer(nrm, nrm)
     )
-    area_ring = np.pi * g.drum_semi_axis_manubrium_m * g.drum_semi_axis_transverse_m
-
-    def on_body(K6):
-        return np.broadcast_to(body_map.T @ K6 @ body_map, (nd, n, n))
-
-    def on_stapes(k3x3):  # grounded springs of 3 × 3 stiffness k3x3 at every outline point
-        return (
-            stapes_t @ grounded_springs(F, outline, np.broadcast_to(k3x3, (len(outline), 3, 3))) @ stapes_map
-        )
-
-    K_drum = on_body(np.asarray(drum.stiffness)).copy()
-    K_drum[:, iw, iw] += area_ring**2 / C_w
-    # the modes (none: zeros): stiffness ω² m_s, mass coupling with the body, load
-    K_modes, M_modes, B_modes = mode_blocks(modes, body_map, iw + 1, mode_scale(drum.mass))
+    C_w = _drum_shape(drum, modes)[0]
+    K_drum = frame.on_body(np.asarray(drum.stiffness)).copy()
+    K_drum[:, frame.iw, frame.iw] += frame.area_ring_m2**2 / C_w
     K_drum += K_modes
     parts = {
         "eardrum": K_drum,
-        "mallear_ligament": on_body(grounded_springs(x_b, pts, k_mallear)),
-        "incudal_ligaments": on_body(grounded_springs(x_b, pts, k_incudal)),
-        "annular_ligament": on_stapes(k_ann),
+        "mallear_ligament": frame.on_body(grounded_springs(x_b, pts, k_mallear)),
+        "incudal_ligaments": frame.on_body(grounded_springs(x_b, pts, k_incudal)),
+        "annular_ligament": frame.on_stapes(F, k_ann),
     }
     K = sum(parts.values())
-    if coupled:
+    if coupling is not None:
         K = K.copy()
-        K[:, ia : ia + 2, ia : ia + 2] += coupling.stiffness
+        K[:, frame.ia : frame.ia + 2, frame.ia : frame.ia + 2] += coupling.stiffness
     # the cochlea: R = Z_C A² along the piston direction, R/n at each annular spring
-    dash = on_stapes(dmp.cochlear_resistance_n_s_m(g.footplate_area_m2) / len(outline) * np.outer(nrm, nrm))
+    resistance = dmp.cochlear_resistance_n_s_m(g.footplate_area_m2) / len(frame.outline)
+    dash = frame.on_stapes(F, resistance * np.outer(nrm, nrm))
+    return parts, dash, K
 
-    # ---- mass
+
+def _masses(frame: _Frame, g: EarGeometry, ms: EarMasses, drum, modes, M_modes) -> dict[str, np.ndarray]:
+    """Mass per part: the drum (with its shape w and modes), the malleus–incus body, the stapes."""
+    x_b = np.asarray(g.body_reference_m, dtype=float)
+    F = np.asarray(g.footplate_centre_m, dtype=float)
+    _, m_w, cross_w = _drum_shape(drum, modes)
     centroid = np.asarray(ms.malleus_incus_centroid(g), dtype=float)
     M_ossicle = rigid_mass(ms.malleus_incus_kg, ms.malleus_incus_gyration_m, centroid, x_b)
     c_s = np.asarray(ms.stapes_centroid(g), dtype=float)
-    M_drum = on_body(np.asarray(drum.mass)).copy()
-    cross = body_map.T @ np.asarray(cross_w) * area_ring
+    iw, area_ring = frame.iw, frame.area_ring_m2
+    M_drum = frame.on_body(np.asarray(drum.mass)).copy()
+    cross = frame.body_map.T @ np.asarray(cross_w) * area_ring
     M_drum[:, :, iw] += cross
     M_drum[:, iw, :] += cross
     M_drum[:, iw, iw] += m_w * area_ring**2
     M_drum += M_modes
-    masses = {
+    return {
         "eardrum": M_drum,
-        "incus": on_body(M_ossicle),
-        "stapes": stapes_t @ rigid_mass(ms.stapes_kg, ms.stapes_gyration_m, c_s, F) @ stapes_map,
+        "incus": frame.on_body(M_ossicle),
+        "stapes": frame.stapes_t @ rigid_mass(ms.stapes_kg, ms.stapes_gyration_m, c_s, F) @ frame.stapes_map,
     }
-    M = sum(masses.values())  # (nd, n, n)
 
-    # ---- damping
-    if coupled:
-        nu = Materials().nu  # as joint_coupling's
 
-        def coupling_stiffness(Ec):
-            return _coupling(factors, jg, nu, Ec, joint).stiffness
+def _joint_region_stiffness(frame: _Frame, factors, jg: Geometry, joint: str, moduli) -> dict:
+    """The joint's coupling stiffness split by region, on the ear's coordinates (for the damping)."""
+    nu = Materials().nu  # as joint_coupling's
 
-        for r, Kr in region_stiffness(coupling_stiffness, moduli_arrays(**moduli)).items():
-            Kf = np.zeros((nd, n, n))
-            Kf[:, ia : ia + 2, ia : ia + 2] = Kr
-            parts[r] = Kf
-    E_visc, K_loss = damping_terms(dmp, parts, masses, dash)
-    joint_terms = None
-    if coupled:  # the joint's own share of K, E and K_loss, for the load-path analysis
-        E_j, L_j = damping_terms(dmp, {r: parts[r] for r in parts if r in REGIONS})
-        blk = (..., slice(ia, ia + 2), slice(ia, ia + 2))
-        joint_terms = (coupling.stiffness, E_j[blk], L_j[blk])
+    def coupling_stiffness(Ec):
+        return _coupling(factors, jg, nu, Ec, joint).stiffness
 
-    # ---- load and outputs
+    out = {}
+    ia = frame.ia
+    for r, Kr in region_stiffness(coupling_stiffness, moduli_arrays(**moduli)).items():
+        Kf = np.zeros((frame.nd, frame.n, frame.n))
+        Kf[:, ia : ia + 2, ia : ia + 2] = Kr
+        out[r] = Kf
+    return out
+
+
+def _load_and_outputs(frame: _Frame, g: EarGeometry, drum, B_modes, K):
+    """The load per pascal, the outputs' rows (umbo along its static direction, stapes piston,
+    α, β) and the umbo's static direction, per design."""
+    x_b = np.asarray(g.body_reference_m, dtype=float)
+    n, nd, ia = frame.n, frame.nd, frame.ia
     Bq = np.zeros((n, 1))
-    Bq[:, 0] = body_map.T @ np.asarray(drum.load_per_pa)
-    Bq[iw, 0] += area_ring
+    Bq[:, 0] = frame.body_map.T @ np.asarray(drum.load_per_pa)
+    Bq[frame.iw, 0] += frame.area_ring_m2
     Bq[:, 0] += B_modes
-    umbo_map = point_map(g.umbo_m, x_b)[0] @ body_map  # (3, n)
+    umbo_map = point_map(g.umbo_m, x_b)[0] @ frame.body_map  # (3, n)
     q_static = np.linalg.solve(K, np.broadcast_to(Bq, (nd, n, 1)))[..., 0]
     u_umbo = q_static @ umbo_map.T  # (nd, 3)
     d_umbo = u_umbo / np.linalg.norm(u_umbo, axis=1, keepdims=True)
     C = np.zeros((nd, 4, n))
     C[:, 0] = d_umbo @ umbo_map
-    C[:, 1] = nrm @ stapes_map[:, :3]
-    if coupled:
+    C[:, 1] = np.asarray(g.piston_direction) @ frame.stapes_map[:, :3]
+    if "alpha" in frame.names:
         C[:, 2, ia], C[:, 3, ia + 1] = 1.0, 1.0
-    single = not coupled or all(np.ndim(v) == 0 for v in moduli.values())
-    Mb = M
-    Bb = np.broadcast_to(Bq, (nd, n, 1)).copy()
-    if single:
-        K, Mb, E_visc, K_loss = K[0], Mb[0], E_visc[0], K_loss[0]
-        Bb, C, d_umbo = Bb[0], C[0], d_umbo[0]
-        if joint_terms is not None:
-            joint_terms = tuple(np.broadcast_to(t, (nd, 2, 2))[0] for t in joint_terms)
-    system = SecondOrderModel(M=Mb, E=E_visc, K=K, B=Bb, C=C, K_loss=K_loss)
-    modal = slice(iw + 1, n) if n_modes else None
-    return LumpedEar(
-        system=system, coordinates=tuple(names), umbo_direction=d_umbo, drum_modes=modal, joint=joint_terms
-    )
+    return Bq, C, d_umbo
