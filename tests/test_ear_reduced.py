@@ -190,6 +190,22 @@ def test_cli_fe_sweep_writes_its_files_and_checks_itself(capsys, tmp_path):
     data = np.load(out / "ear_sweep.npz")
     assert data["response_per_pa"].shape == (12, len(OUTPUTS)) and list(data["units"]) == list(UNITS)
     assert json.loads((out / "ear_sweep.json").read_text())["results"]["passed"] is True
+    # ΔH_V against the rigid connection: H_V of this ear minus ΔH_V is the rigid ear's own H_V
+    rigid_out = tmp_path / "rigid"
+    assert main([*argv, "--rigid-joint", "--out", str(rigid_out), "--json"]) == 0
+    capsys.readouterr()
+    rigid = np.load(rigid_out / "ear_sweep.npz")
+    assert np.max(np.abs(rigid["delta_h_v_db"])) < 1e-12  # the rigid connection against itself
+    np.testing.assert_allclose(data["h_v_db"] - data["delta_h_v_db"], rigid["h_v_db"], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(
+        data["h_v_db"],
+        20 * np.log10(np.abs(data["response_per_pa"][:, list(OUTPUTS).index("stapes_velocity_m_s")])),
+    )
+    below = data["freq_hz"] <= 10e3
+    assert summary["delta_h_v"]["max_abs_delta_h_v_db_to_10khz"] == np.max(
+        np.abs(data["delta_h_v_db"][below])
+    )
+    assert "delta_h_v_db" in header.split(",")
 
 
 def test_cli_fe_sweep_exits_1_when_a_check_fails(capsys, tmp_path, monkeypatch):

@@ -277,6 +277,8 @@ def _fe_sweep(args) -> int:
     import numpy as np
 
     from isj.fem.ear import reduced_ear as es
+    from isj.fem.ear.fast_ear import delta_columns
+    from isj.fem.ear.middle_ear import MiddleEarModel
 
     from ..atomic import replace_dir
     from ..provenance import write_run_record
@@ -299,6 +301,15 @@ def _fe_sweep(args) -> int:
     names = es.OUTPUTS if not args.rigid_joint else es.OUTPUTS[:7]  # no α, β, share without the joint
     H = np.column_stack([resp[k] for k in names])
     static = rom.static()
+    # ΔH_V against the rigid connection of the same ear (one more reduction; none if rigid already)
+    h_v = resp["stapes_velocity_m_s"]
+    h_v_rigid = h_v
+    if not args.rigid_joint:
+        rigid_model = MiddleEarModel(joint=None, geometry=model.geometry)
+        rigid = es.reduced_ear(rigid_model, m, ear_materials, fmax_hz=args.fmax_hz)
+        h_v_rigid = rigid.frequency_response(freqs, damping)["stapes_velocity_m_s"]
+    delta = delta_columns(freqs, h_v, h_v_rigid)
+    t5 = time.perf_counter()
     summary = {
         "fe": True,
         "n_freq": int(args.n),
@@ -316,18 +327,20 @@ def _fe_sweep(args) -> int:
         "static_stapes_m_per_pa": float(static.footplate_m_per_pa @ rom.piston_direction),
         "checks": chk,
         "passed": chk["passed"],
+        "delta_h_v": delta["summary"] | {"against": "the rigid connection of the same ear (reduced FE)"},
         "timings_s": {
             "model": t1 - t0,
             "reduction": t2 - t1,
             "sweep": t3 - t2,
             "per_frequency": (t3 - t2) / args.n,
             "checks": t4 - t3,
-            "total": t4 - t0,
+            "rigid_connection": t5 - t4,
+            "total": t5 - t0,
         },
     }
     c.check_finite(summary | {"response": H}, c.design_inputs(args))
     with replace_dir(out) as staging:  # the four files appear together or not at all
-        _write_fe(args, staging, freqs, H, names, [resp.unit(k) for k in names], chk)
+        _write_fe(args, staging, freqs, H, names, [resp.unit(k) for k in names], chk, delta)
         write_run_record(staging / "ear_sweep.json", args, summary)
     if args.json:
         c.print_json(summary)
@@ -352,8 +365,11 @@ def _fe_sweep(args) -> int:
     return 0
 
 
-def _write_fe(args, out, freqs, H, names, units, chk) -> None:
-    """ear_sweep.csv, ear_sweep.npz and ear_bode.png of ``--fe`` (ear_sweep.json comes last)."""
+def _write_fe(args, out, freqs, H, names, units, chk, delta) -> None:
+    """ear_sweep.csv, ear_sweep.npz and ear_bode.png of ``--fe`` (ear_sweep.json comes last).
+
+    ``delta``: :func:`isj.fem.ear.fast_ear.delta_columns`, H_V and ΔH_V in dB and degrees, as
+    plain columns after the complex ones."""
     import numpy as np
     from matplotlib.figure import Figure
 
@@ -362,8 +378,12 @@ def _write_fe(args, out, freqs, H, names, units, chk) -> None:
 
     joint_label = "rigid joint" if args.rigid_joint else "joint model inside"
     text = "; ".join(f"{k} {u}" for k, u in zip(names, units, strict=True))
-    header = f"freq_hz Hz; per Pa of ear-canal pressure: {text}; phase deg; FE ear, {joint_label}"
-    write_response_csv(out / "ear_sweep.csv", freqs, H, names, header)
+    delta_text = "; ".join(f"{k} {u}" for k, u in delta["units"].items())
+    header = (
+        f"freq_hz Hz; per Pa of ear-canal pressure: {text}; phase deg; {delta_text} "
+        f"(ΔH_V against the rigid connection of the same ear); FE ear, {joint_label}"
+    )
+    write_response_csv(out / "ear_sweep.csv", freqs, H, names, header, extra=delta["columns"])
     keys = [k for k in ("umbo_m", "stapes_m", "alpha_rad", "beta_rad") if f"direct_{k}" in chk["checks"][0]]
     direct = np.array([[complex(*ck[f"direct_{k}"]) for k in keys] for ck in chk["checks"]])
     f_chk = np.array([ck["freq_hz"] for ck in chk["checks"]])
@@ -376,6 +396,7 @@ def _write_fe(args, out, freqs, H, names, units, chk) -> None:
         check_freq_hz=f_chk,
         check_outputs=np.array(keys),
         check_direct_per_pa=direct,
+        **{k: v for k, v in delta["columns"].items()},
     )
     fig = Figure(figsize=(7, 6))  # a Figure of its own: no pyplot state, no backend chosen
     ax_mag, ax_ph = fig.subplots(2, 1, sharex=True)
