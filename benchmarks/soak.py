@@ -1,25 +1,26 @@
 """Soak test of the main job: ``isj report`` again and again from empty caches, counting failures.
 
-Run:  .venv/bin/python benchmarks/soak.py [--n 20] [--after-solve 2] [--coarse] [--keep]
+Run:  .venv/bin/python benchmarks/soak.py [--coarse 20] [--default 3] [--after-solve 0] [--keep]
 
-Two kinds of run, each in fresh processes with its own empty mesh and FE
+Three kinds of run, each in fresh processes with its own empty mesh and FE
 caches (``ISJ_CACHE_DIR``, ``ISJ_FE_CACHE_DIR``) and its own output folder:
 
-- ``cold``: ``isj report --out DIR``, the README's main job, ``--n`` times;
-- ``after-solve``: ``isj fem solve``, then ``isj report --out DIR``,
-  ``--after-solve`` times. The joint mesh is then already cached when the
-  report starts, and later steps still mesh (the cantilever): the sequence that
-  crashed PARDISO with a SIGSEGV (exit 139) in 2 runs out of 2 before the
+- ``coarse``: ``isj report --config CASE --out DIR`` on the coarse mesh of the
+  tests (P2 at resolution 0.35, few points per section; the case of
+  ``tests/conftest.py``), ``--coarse`` times;
+- ``default``: ``isj report --out DIR``, the README's main job on the default
+  mesh, ``--default`` times;
+- ``after-solve``: ``isj fem solve``, then ``isj report --out DIR`` (default
+  mesh), ``--after-solve`` times. The joint mesh is then already cached when
+  the report starts, and later steps still mesh (the cantilever): the sequence
+  that crashed PARDISO with a SIGSEGV (exit 139) in 2 runs out of 2 before the
   solver's threads were pinned (``isj.fem.solvers``).
 
-A run fails when a command exits non-zero or the report folder lacks
-``report.pdf``. Each failure is printed with its exit code (a negative code,
-or 128 + n, is signal n) and the last lines of its output; the summary is one
-JSON line. The exit code is 1 if any run failed.
-
-A cold report takes about 70 s on 2 shared cores, so ``--n 20`` takes about
-half an hour; ``--coarse`` runs a small case (P2 at resolution 0.35, few
-points, about 30 s) to check the soak itself.
+A run fails when a command exits non-zero, the report folder lacks
+``report.pdf``, or a staging folder (``.report.*``) is left beside it. Each
+failure is printed with its exit code (a negative code, or 128 + n, is signal
+n) and the last lines of its output; the summary is one JSON line with the
+runs and failures per kind. The exit code is 1 if any run failed.
 """
 
 from __future__ import annotations
@@ -34,7 +35,7 @@ import tempfile
 import time
 from pathlib import Path
 
-# as tests/test_report.py's coarse case: every step runs, on a small mesh
+# the coarse case of tests/conftest.py (COARSE_REPORT): every step runs, on a small mesh
 COARSE_CASE = """\
 [mesh]
 order = 2
@@ -53,7 +54,23 @@ seed = 7
 n_freq = 20
 fe_checks = 1
 n_modes = 3
+[transmission]
+n_freq = 40
+cases = ["p12"]
+fe_checks = 1
+sliding_cases = ["p12"]
+[uq]
+samples = 20000
+sobol_samples = 512
+bootstrap = 20
+[sliding]
+joints = ["bonded", "sliding"]
+[guard]
+dense_samples = 512
+fe_checks = 1
 """
+
+KINDS = ("coarse", "default", "after-solve")
 
 
 def _isj() -> list[str]:
@@ -62,19 +79,19 @@ def _isj() -> list[str]:
     return [str(exe)] if exe.exists() else [sys.executable, "-m", "isj"]
 
 
-def run_once(kind: str, root: Path, coarse: bool) -> dict:
+def run_once(kind: str, root: Path) -> dict:
     """One soak run in ``root`` (its caches and report folder); returns its record."""
     env = dict(os.environ)
     env["ISJ_CACHE_DIR"] = str(root / "meshes")
     env["ISJ_FE_CACHE_DIR"] = str(root / "fe")
     report = [*_isj(), "report", "--out", str(root / "report"), "-q"]
-    solve = [*_isj(), "fem", "solve"]
-    if coarse:
+    if kind == "coarse":
         case = root / "case.toml"
         case.write_text(COARSE_CASE)
         report += ["--config", str(case)]
-        solve += ["--order", "2", "--resolution", "0.35"]  # the report's joint mesh, cached by the solve
-    commands = ([("fem solve", solve)] if kind == "after-solve" else []) + [("report", report)]
+    commands = ([("fem solve", [*_isj(), "fem", "solve"])] if kind == "after-solve" else []) + [
+        ("report", report)
+    ]
     t0 = time.perf_counter()
     for name, command in commands:
         done = subprocess.run(command, env=env, capture_output=True, text=True)
@@ -88,33 +105,36 @@ def run_once(kind: str, root: Path, coarse: bool) -> dict:
                 "tail": tail,
                 "seconds": time.perf_counter() - t0,
             }
-    ok = (root / "report" / "report.pdf").is_file()
-    record = {"kind": kind, "ok": ok, "seconds": time.perf_counter() - t0}
-    if not ok:
-        record |= {"command": "report", "returncode": 0, "tail": ["exit 0 but no report.pdf"]}
+    record = {"kind": kind, "ok": True, "seconds": time.perf_counter() - t0}
+    left = sorted(p.name for p in root.glob(".report.*"))
+    if not (root / "report" / "report.pdf").is_file():
+        record |= {"ok": False, "command": "report", "returncode": 0, "tail": ["exit 0 but no report.pdf"]}
+    elif left:
+        record |= {"ok": False, "command": "report", "returncode": 0, "tail": [f"left {left[0]} beside it"]}
     return record
 
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--n", type=int, default=20, help="cold reports (default 20)")
-    p.add_argument("--after-solve", type=int, default=2, help="reports after isj fem solve (default 2)")
-    p.add_argument("--coarse", action="store_true", help="a small case (30 s a report), not the defaults")
+    p.add_argument("--coarse", type=int, default=20, help="cold reports on the coarse mesh (default 20)")
+    p.add_argument("--default", type=int, default=3, help="cold reports on the default mesh (default 3)")
+    p.add_argument("--after-solve", type=int, default=0, help="reports after isj fem solve (default 0)")
     p.add_argument("--keep", action="store_true", help="keep the runs' folders (printed), do not delete them")
     args = p.parse_args(argv)
-    for name in ("n", "after_solve"):
-        if not 0 <= getattr(args, name) <= 1000:
-            p.error(f"--{name.replace('_', '-')} {getattr(args, name)}: must be an integer in [0, 1000]")
-    kinds = ["cold"] * args.n + ["after-solve"] * args.after_solve
+    counts = {"coarse": args.coarse, "default": args.default, "after-solve": args.after_solve}
+    for name, n in counts.items():
+        if not 0 <= n <= 1000:
+            p.error(f"--{name} {n}: must be an integer in [0, 1000]")
+    kinds = [k for k in KINDS for _ in range(counts[k])]
     if not kinds:
-        p.error("--n and --after-solve are both 0: nothing to run")
+        p.error("--coarse, --default and --after-solve are all 0: nothing to run")
     records = []
     top = tempfile.mkdtemp(prefix="isj-soak-")
     try:
         for i, kind in enumerate(kinds, 1):
             root = Path(top) / f"{i:03d}-{kind}"
             root.mkdir()
-            rec = run_once(kind, root, args.coarse)
+            rec = run_once(kind, root)
             records.append(rec)
             status = "ok" if rec["ok"] else f"FAILED ({rec['command']}: exit {rec['returncode']})"
             print(f"[{i}/{len(kinds)}] {kind}: {status} in {rec['seconds']:.0f} s", flush=True)
@@ -128,12 +148,14 @@ def main(argv: list[str] | None = None) -> int:
             shutil.rmtree(top, ignore_errors=True)
     failures = [r for r in records if not r["ok"]]
     summary = {
-        "runs": len(records),
-        "failures": len(failures),
-        "by_kind": {k: sum(1 for r in failures if r["kind"] == k) for k in ("cold", "after-solve")},
+        "runs": {k: sum(1 for r in records if r["kind"] == k) for k in KINDS},
+        "failures": {k: sum(1 for r in failures if r["kind"] == k) for k in KINDS},
         "exit_codes": sorted({r["returncode"] for r in failures}),
-        "coarse": args.coarse,
-        "mean_seconds": sum(r["seconds"] for r in records) / len(records),
+        "mean_seconds": {
+            k: sum(r["seconds"] for r in records if r["kind"] == k) / max(1, counts[k])
+            for k in KINDS
+            if counts[k]
+        },
     }
     print(json.dumps(summary))
     return 1 if failures else 0

@@ -13,8 +13,8 @@ A reader raises :class:`DamagedEntry` for anything it cannot trust: a
 truncated file, random bytes, a missing checksum, or a number edited so that
 the file is still valid JSON or NPZ but no longer matches its checksum. The
 cache that owns the entry then calls :func:`discard`: one warning line
-(:class:`~isj.errors.CorruptCacheEntry`), the files deleted, the result
-recomputed by the caller.
+(:class:`~isj.errors.CorruptCacheEntry`), the files deleted (a folder standing
+where an entry belongs too), the result recomputed by the caller.
 """
 
 from __future__ import annotations
@@ -23,6 +23,7 @@ import hashlib
 import json
 import math
 import os
+import shutil
 import warnings
 from pathlib import Path
 
@@ -193,7 +194,19 @@ def discard(paths, what: str, reason: str | BaseException, stacklevel: int = 2) 
         stacklevel=stacklevel + 1,
     )
     for p in paths:
-        try:
+        remove_entry(p)
+
+
+def remove_entry(path: str | os.PathLike) -> None:
+    """Delete the file ``path``, or the folder (with all it holds) standing where a file belongs.
+
+    A read-only cache keeps the entry; it is never used, since it does not verify.
+    """
+    p = Path(path)
+    try:
+        if p.is_dir() and not p.is_symlink():
+            shutil.rmtree(p)
+        else:
             p.unlink(missing_ok=True)
-        except OSError:  # a read-only cache: the entry stays, but is never used
-            pass
+    except OSError:
+        pass

@@ -4,7 +4,8 @@ The report is written into a temporary sibling folder (``.<name>.<random>.partia
 and moved into place only when it is complete, so a folder named by ``--out``
 holds one whole report or the previous one, never a mix of two configurations
 (an interrupted run leaves the previous report untouched; the step cache lets
-the next run start again at the first unfinished step). The output folder gets:
+the next run start again at the first unfinished step, and removes the folder
+a killed run left, :func:`isj.atomic.replace_dir`). The output folder gets:
 
 - ``report.pdf``;
 - ``data/<step>.json`` (every number of a section) and ``data/*.csv`` (tables);
@@ -22,16 +23,13 @@ from __future__ import annotations
 
 import json
 import os
-import secrets
 import shutil
 import sys
-import tempfile
 import time
 from pathlib import Path
 
-from isj.atomic import atomic_write_json, atomic_write_text
+from isj.atomic import atomic_write_json, atomic_write_text, check_out_folder, replace_dir
 from isj.caches import fe_cache_dir
-from isj.errors import InvalidParameter
 
 from .config import ReportConfig
 from .steps import STEPS, Context, step_inputs
@@ -49,7 +47,7 @@ def check_out_dir(out_dir: str | os.PathLike, name: str = "out_dir") -> Path:
     It may be new, empty, or a previous report (only :data:`REPORT_ENTRIES`): the
     report replaces the whole folder, so a folder with other files, a file, a
     symbolic link, or the current folder (or one above it) is refused, and so is
-    a place where no folder can be created (tried with an empty folder, removed).
+    a place where no folder can be created (:func:`isj.atomic.check_out_folder`).
 
     Parameters
     ----------
@@ -61,65 +59,7 @@ def check_out_dir(out_dir: str | os.PathLike, name: str = "out_dir") -> Path:
     InvalidParameter
         One line naming ``name`` and what the folder must be.
     """
-    text = str(out_dir)
-    out = Path(os.path.abspath(text)) if text.strip() else None
-    if out is None or out.parent == out:
-        raise InvalidParameter(f"{name} = {text!r}: must name a folder (not empty, not a root)")
-    cwd = Path.cwd().absolute()
-    if out == cwd or out in cwd.parents:
-        raise InvalidParameter(f"{name} = {text!r}: must not be the current folder or one above it")
-    if out.is_symlink():
-        raise InvalidParameter(f"{name} = {text!r}: is a symbolic link; give the folder it points to")
-    if out.exists():
-        if not out.is_dir():
-            raise InvalidParameter(f"{name} = {text!r}: exists and is not a folder")
-        other = sorted(p.name for p in out.iterdir() if p.name not in REPORT_ENTRIES)
-        if other:
-            raise InvalidParameter(
-                f"{name} = {text!r}: holds {other[0]!r}, which is not part of a report; "
-                "must be a new or empty folder or a previous report"
-            )
-    above = next(p for p in out.parents if p.exists())
-    try:  # the report's folder is created beside the output folder: try that, leaving nothing
-        os.rmdir(tempfile.mkdtemp(prefix=".isj-probe-", dir=above))
-    except OSError as exc:
-        raise InvalidParameter(
-            f"{name} = {text!r}: no folder can be created in {str(above)!r} ({exc.strerror or exc})"
-        ) from None
-    return out
-
-
-def _staging_dir(out: Path) -> Path:
-    """A new empty sibling of ``out`` to write the report into (permissions as ``mkdir`` gives)."""
-    while True:
-        staging = out.parent / f".{out.name}.{secrets.token_hex(4)}.partial"
-        try:
-            out.parent.mkdir(parents=True, exist_ok=True)
-            staging.mkdir()  # not mkdtemp: its 0700 would become the report folder's mode
-            return staging
-        except FileExistsError:  # pragma: no cover - 32 random bits
-            continue
-        except OSError as exc:  # before any computation: say so in one line
-            raise InvalidParameter(
-                f"out_dir = {str(out)!r}: cannot create a folder beside it ({exc.strerror or exc})"
-            ) from None
-
-
-def _swap_in(staging: Path, out: Path) -> None:
-    """Replace ``out`` (if any) by the finished ``staging`` folder: two renames, old removed last."""
-    old = None
-    if out.exists():
-        old = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".old", dir=out.parent))
-        os.replace(out, old / out.name)  # aside, inside a folder of its own
-    try:
-        os.replace(staging, out)
-    except BaseException:
-        if old is not None:  # put the previous report back
-            os.replace(old / out.name, out)
-            old.rmdir()
-        raise
-    if old is not None:
-        shutil.rmtree(old, ignore_errors=True)
+    return check_out_folder(out_dir, name, REPORT_ENTRIES, written_by="isj report")
 
 
 def _reuse_vtu(out: Path, model_key: str, target: Path) -> bool:
@@ -176,13 +116,9 @@ def run_report(
     check_mesh_size(config.geometry, config.mesh.order, config.mesh.resolution, name="mesh.resolution")
     t_start = time.perf_counter()
     cal = calibration if calibration is not None else load_calibration(config)
-    staging = _staging_dir(out)
-    try:
+    # staging folders a killed run left beside the output are removed here (isj.atomic.replace_dir)
+    with replace_dir(out, out_name) as staging:
         summary = _run(config, out, staging, verbosity, cache_dir, cal, t_start)
-        _swap_in(staging, out)
-    except BaseException:
-        shutil.rmtree(staging, ignore_errors=True)
-        raise
     return summary
 
 

@@ -10,6 +10,7 @@ import os
 import subprocess
 import sys
 import textwrap
+from pathlib import Path
 
 import pytest
 from isj.fem import solvers
@@ -29,10 +30,10 @@ _MINIMAL_SEQUENCE = textwrap.dedent(
 
     # the mesh from disk, as from the mesh cache: gmsh has not run in this process
     model = PedicleJointModel(order=2, mesh=load_mesh(Path(sys.argv[1])))
-    first = model.solve()
+    first = model.static()
     mesh_cantilever(cache_dir=False)
-    again = model.solve()
-    other = model.solve(Materials(pedicle_e_pa=4e9))
+    again = model.static()
+    other = model.static(Materials(pedicle_e_pa=4e9))
     print(first.alpha_rad.hex(), again.alpha_rad.hex(), other.alpha_rad.hex())
     """
 )
@@ -148,17 +149,17 @@ def test_whole_ear_takes_its_joint_length_from_a_joint_of_another_stack_height()
     assert len(ear.stapes_face) > 0 and len(ear.incus_face) > 0
     assert np.abs((pts[ear.stapes_face] - g.stapes_head_m) @ z).max() < 1e-12
     assert np.abs((pts[ear.incus_face] - g.long_process_end_m) @ z).max() < 1e-12
-    res = ear.solve()
+    res = ear.static()
     assert res.alpha_rad_per_pa > 0 and res.beta_rad_per_pa > 0
     assert np.isfinite(res.footplate_piston_m_per_pa) and res.footplate_piston_m_per_pa > 0
     # the rigid-joint variant of the same ear
-    rigid = MiddleEarModel(joint=None, geometry=g).solve()
+    rigid = MiddleEarModel(joint=None, geometry=g).static()
     assert rigid.footplate_piston_m_per_pa > res.footplate_piston_m_per_pa  # a compliant joint loses motion
     assert EarGeometry().for_joint(Geometry()) == EarGeometry()
     # the lumped ear too
     from isj.lumped.ear import ear_model
 
-    lumped = ear_model(joint_geometry=geometry).freq_resp([100.0])
+    lumped = ear_model(joint_geometry=geometry)._freq_resp([100.0])
     assert lumped.shape == (1, 4) and np.isfinite(lumped).all()
 
 
@@ -275,7 +276,7 @@ def test_report_refuses_an_output_folder_it_may_not_replace(tmp_path, monkeypatc
         target.symlink_to(tmp_path / "real")
     else:
         target = ""
-    with pytest.raises(InvalidParameter, match=r"^--out = .*: (holds|exists|must|no folder|is a symbolic)"):
+    with pytest.raises(InvalidParameter, match=r"^--out = .*: (holds|exists|must|nothing can|is a symbolic)"):
         run.check_out_dir(target, "--out")
     before = sorted(p.name for p in tmp_path.iterdir())
     calls = []
@@ -325,10 +326,10 @@ def test_nearly_incompressible_materials_warn_of_locking(coarse_model):
 
     assert issubclass(VolumetricLockingWarning, IsjWarning)
     with pytest.warns(VolumetricLockingWarning, match=r"nu = 0.4999999: above 0.49 P2"):
-        locked = coarse_model.solve(Materials(nu=0.4999999))
+        locked = coarse_model.static(Materials(nu=0.4999999))
     with warnings.catch_warnings():
         warnings.simplefilter("error", VolumetricLockingWarning)
-        fine = coarse_model.solve(Materials(nu=LOCKING_NU[2]))  # the threshold itself: no warning
+        fine = coarse_model.static(Materials(nu=LOCKING_NU[2]))  # the threshold itself: no warning
     assert locked.alpha_rad < fine.alpha_rad
     assert not check_locking(0.45, 1) and not check_locking(0.3, 2)
     with pytest.warns(VolumetricLockingWarning, match="P1"):
@@ -386,3 +387,403 @@ def test_report_refuses_a_mesh_too_large_for_memory_before_computing(tmp_path, m
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "mesh.resolution = 4" in err[0] and "must be <=" in err[0]
     assert not out.exists() and not (tmp_path / "fe").exists()
+
+
+# ---------------------------------------------------------------- killed, concurrent and damaged runs
+#
+# Each long command is killed with SIGKILL (no handler runs), then run again: it must finish,
+# redo nothing that was finished (the files of finished work keep their inode and mtime), and
+# give what an uninterrupted run gives, bit for bit.
+
+_SMALL_ROM = {"n_train": 64, "n_validate": 64, "max_snapshots": 12}  # a P1 coarse surrogate: seconds
+
+_BUILD = textwrap.dedent(
+    """
+    import json, sys, time
+    import isj.fem.rom.model as m
+    from isj.fem.rom import reduced_model
+
+    built = []
+    build = m.build_reduced_model
+
+    def announced(*a, **k):
+        built.append(1)
+        open(sys.argv[1], "w").close()  # 'building now'
+        time.sleep(float(sys.argv[2]))  # long enough for a second process to arrive
+        return build(*a, **k)
+
+    m.build_reduced_model = announced
+    rom = reduced_model(order=1, resolution=0.35, **json.loads(sys.argv[3]))
+    print(json.dumps({"built": len(built), "u_g": rom.arrays["u_g"].tolist()}))
+    """
+)
+
+
+def _files_state(folder) -> dict:
+    """(inode, mtime) of every file below ``folder``: a file rewritten gets a new one."""
+    return {
+        str(p.relative_to(folder)): (p.stat().st_ino, p.stat().st_mtime_ns)
+        for p in folder.rglob("*")
+        if p.is_file()
+    }
+
+
+def _wait_for(predicate, proc, timeout_s: float = 600.0) -> None:
+    import time
+
+    t0 = time.monotonic()
+    while not predicate():
+        assert proc.poll() is None, f"finished (exit {proc.returncode}) before the point to kill it"
+        assert time.monotonic() - t0 < timeout_s, "the point to kill it never came"
+        time.sleep(0.05)
+
+
+def _same_arrays(a: dict, b: dict) -> bool:
+    import numpy as np
+
+    return set(a) == set(b) and all(
+        a[k].dtype == b[k].dtype and a[k].shape == b[k].shape and np.array_equal(a[k], b[k]) for k in a
+    )
+
+
+def _build_meta(rom) -> dict:
+    return {
+        k: v
+        for k, v in rom.meta.items()
+        if k not in ("build_time_s", "timings_s", "local_time_s", "resumed_snapshots")
+    }
+
+
+def test_a_killed_rom_build_resumes_at_its_last_step_to_the_same_bits(tmp_path, monkeypatch):
+    import json
+    import signal
+
+    import isj.fem.rom.offline as offline
+    from isj.fem.rom import reduced_model, rom_cache_dir
+
+    monkeypatch.setenv("ISJ_FE_CACHE_DIR", str(tmp_path / "clean"))
+    clean = reduced_model(order=1, resolution=0.35, **_SMALL_ROM)
+    assert not list(rom_cache_dir().glob("*.steps"))  # the steps go once the entry is stored
+    n = clean.meta["n_snapshots"]
+    assert n >= 8
+
+    killed = tmp_path / "killed"
+    script = _BUILD.replace("time.sleep(float(sys.argv[2]))", "pass")
+    proc = subprocess.Popen(
+        [sys.executable, "-c", script, str(tmp_path / "started"), "0", json.dumps(_SMALL_ROM)],
+        env=dict(os.environ, ISJ_FE_CACHE_DIR=str(killed)),
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    steps = killed / "rom"
+    _wait_for(lambda: len(list(steps.glob("*.steps/step-*.npz"))) >= 5, proc)
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    kept = len(list(steps.glob("*.steps/step-*.npz")))
+    assert 5 <= kept < n and not list(steps.glob("rom-*.npz"))  # killed mid-greedy
+
+    monkeypatch.setenv("ISJ_FE_CACHE_DIR", str(killed))
+    solved = []
+    add = offline.Greedy.add_snapshot
+    monkeypatch.setattr(offline.Greedy, "add_snapshot", lambda self, e: (solved.append(1), add(self, e))[1])
+    again = reduced_model(order=1, resolution=0.35, **_SMALL_ROM)
+    assert again.meta["resumed_snapshots"] == kept
+    assert len(solved) == n - kept  # only the unfinished snapshots were solved
+    assert _same_arrays(again.arrays, clean.arrays)
+    assert _build_meta(again) == _build_meta(clean)
+    assert not list(rom_cache_dir().glob("*.steps"))
+
+
+def test_damaged_or_stale_rom_build_steps_are_never_used(tmp_path, monkeypatch):
+    import isj.fem.rom.offline as offline
+    import numpy as np
+    from isj.fem.rom import reduced_model, rom_cache_dir
+
+    from isj.errors import CorruptCacheEntry
+
+    monkeypatch.setenv("ISJ_FE_CACHE_DIR", str(tmp_path / "clean"))
+    clean = reduced_model(order=1, resolution=0.35, **_SMALL_ROM)
+
+    class Killed(BaseException):
+        pass
+
+    save = offline.GreedySteps.save
+
+    def save_then_die(self, greedy, train, history):
+        save(self, greedy, train, history)
+        if len(greedy.snapshots) == 6:
+            raise Killed
+
+    monkeypatch.setenv("ISJ_FE_CACHE_DIR", str(tmp_path / "damaged"))
+    monkeypatch.setattr(offline.GreedySteps, "save", save_then_die)
+    with pytest.raises(Killed):
+        reduced_model(order=1, resolution=0.35, **_SMALL_ROM)
+    monkeypatch.setattr(offline.GreedySteps, "save", save)
+    (folder,) = rom_cache_dir().glob("*.steps")
+    files = sorted(folder.glob("step-*.npz"))
+    assert len(files) == 6
+    # step 4 damaged: steps 1-3 are taken, 4 reported and deleted, 5 and 6 (chained to it) dropped
+    data = bytearray(files[3].read_bytes())
+    data[len(data) // 2] ^= 0xFF
+    files[3].write_bytes(bytes(data))
+    with pytest.warns(CorruptCacheEntry, match=r"surrogate greedy step cache entry .*step-0004\.npz"):
+        again = reduced_model(order=1, resolution=0.35, **_SMALL_ROM)
+    assert again.meta["resumed_snapshots"] == 3
+    assert _same_arrays(again.arrays, clean.arrays)
+
+    # a step of another build in place of step 2: refused, and the build starts after step 1
+    monkeypatch.setenv("ISJ_FE_CACHE_DIR", str(tmp_path / "stale"))
+    monkeypatch.setattr(offline.GreedySteps, "save", save_then_die)
+    with pytest.raises(Killed):
+        reduced_model(order=1, resolution=0.35, **(_SMALL_ROM | {"n_train": 32}))
+    with pytest.raises(Killed):
+        reduced_model(order=1, resolution=0.35, **_SMALL_ROM)
+    monkeypatch.setattr(offline.GreedySteps, "save", save)
+    (entry,) = (tmp_path / "clean" / "rom").glob("rom-*.npz")  # the same key names our steps
+    ours = rom_cache_dir() / f"{entry.stem}.steps"
+    (other,) = set(rom_cache_dir().glob("*.steps")) - {ours}
+    (ours / "step-0002.npz").write_bytes((other / "step-0002.npz").read_bytes())
+    with pytest.warns(CorruptCacheEntry, match="written by another build"):
+        third = reduced_model(order=1, resolution=0.35, **_SMALL_ROM)
+    assert third.meta["resumed_snapshots"] == 1
+    assert np.array_equal(third.arrays["u_R"], clean.arrays["u_R"])
+
+
+def test_two_rom_builds_at_once_one_waits_and_loads_what_the_other_built(tmp_path):
+    import json
+    import time
+
+    env = dict(os.environ, ISJ_FE_CACHE_DIR=str(tmp_path / "fe"))
+    started = tmp_path / "started"
+    settings = json.dumps(_SMALL_ROM)
+    first = subprocess.Popen(
+        [sys.executable, "-c", _BUILD, str(started), "3", settings],
+        env=env,
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+    _wait_for(started.exists, first, timeout_s=300)
+    # the second asks for the same surrogate while the first is building it (3 s of sleep, then the build)
+    t0 = time.monotonic()
+    second = subprocess.run(
+        [sys.executable, "-c", _BUILD, str(tmp_path / "second"), "0", settings],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    waited = time.monotonic() - t0
+    out_first, _ = first.communicate(timeout=600)
+    assert first.returncode == 0 and second.returncode == 0, second.stderr[-2000:]
+    a, b = json.loads(out_first), json.loads(second.stdout)
+    assert (a["built"], b["built"]) == (1, 0)  # one build: the second waited and loaded it
+    assert a["u_g"] == b["u_g"]
+    assert not (tmp_path / "second").exists()
+    assert waited > 1.0  # it did wait for the first (which slept 3 s before building)
+
+
+_STAGE = textwrap.dedent(
+    """
+    import sys, time
+    from isj.atomic import replace_dir
+
+    with replace_dir(sys.argv[1]) as staging:
+        (staging / "report.pdf").write_text("half")
+        print(staging, flush=True)
+        time.sleep(600)
+    """
+)
+
+
+def test_a_killed_run_leaves_a_staging_folder_the_next_report_removes_and_a_live_one_it_keeps(
+    tmp_path, monkeypatch
+):
+    import signal
+
+    import isj.reports.run as run
+
+    out = tmp_path / "R"
+    procs = [
+        subprocess.Popen([sys.executable, "-c", _STAGE, str(out)], stdout=subprocess.PIPE, text=True)
+        for _ in range(2)
+    ]
+    try:
+        dead, live = (Path(p.stdout.readline().strip()) for p in procs)
+        procs[0].send_signal(signal.SIGKILL)
+        procs[0].wait()
+        assert dead.name.startswith(".R.") and dead.name.endswith(".partial") and dead.is_dir()
+        assert live.is_dir()
+
+        def fake_run(config, out_, staging, *a):
+            (staging / "report.pdf").write_text("whole")
+            return {"ok": True}
+
+        monkeypatch.setattr(run, "_run", fake_run)
+        assert run.run_report(_config(tmp_path), out, verbosity=0, calibration=object()) == {"ok": True}
+        assert (out / "report.pdf").read_text() == "whole"
+        assert not dead.exists()  # the killed run's folder is gone
+        assert live.is_dir() and (live / "report.pdf").read_text() == "half"  # a live run's is not
+        # an interrupted run (an exception) removes its own folder, and leaves R as it was
+        monkeypatch.setattr(run, "_run", lambda *a: (_ for _ in ()).throw(KeyboardInterrupt))
+        with pytest.raises(KeyboardInterrupt):
+            run.run_report(_config(tmp_path), out, verbosity=0, calibration=object())
+        assert (out / "report.pdf").read_text() == "whole"
+        assert sorted(p.name for p in tmp_path.iterdir() if p.name.startswith(".R.")) == [live.name]
+    finally:
+        for p in procs:
+            p.kill()
+            p.wait()
+
+
+@pytest.mark.parametrize("damage", ["directory", "truncated", "garbage", "directory for the arrays"])
+def test_a_damaged_report_step_entry_is_reported_removed_and_recomputed(tmp_path, damage):
+    import numpy as np
+    from isj.reports.store import StepStore
+
+    from isj.errors import CorruptCacheEntry
+
+    store = StepStore(tmp_path)
+    store.put("ear", "k1", {"x": 1.5}, {"a": np.arange(3.0)})
+    jpath, npath = tmp_path / "ear-k1.json", tmp_path / "ear-k1.npz"
+    if damage == "directory":
+        jpath.unlink()
+        (jpath / "inside").mkdir(parents=True)  # a folder, not empty, where the record belongs
+    elif damage == "truncated":
+        jpath.write_bytes(jpath.read_bytes()[:20])
+    elif damage == "garbage":
+        npath.write_bytes(b"\x00garbage" * 10)
+    else:
+        npath.unlink()
+        npath.mkdir()
+    with pytest.warns(CorruptCacheEntry, match="deleted, recomputing"):
+        assert store.get("ear", "k1") is None
+    assert not jpath.exists() and not npath.exists()  # files and folders alike
+    store.put("ear", "k1", {"x": 2.5}, {"a": np.arange(4.0)})  # the recomputed step is stored
+    result, arrays = store.get("ear", "k1")
+    assert result == {"x": 2.5} and np.array_equal(arrays["a"], np.arange(4.0))
+
+
+def _isj_run(args, env, **kw):
+    return subprocess.run([sys.executable, "-m", "isj", *args], env=env, capture_output=True, text=True, **kw)
+
+
+def _report_differences(a, b) -> list[str]:
+    """The files in which the reports in folders ``a`` and ``b`` differ, run.json aside (timings).
+
+    The PDF is compared when both were made at the same date and git revision (its pages say
+    both): a commit between the runs changes its bytes, not its numbers.
+    """
+    import json
+
+    fa, fb = (_snapshot(f) for f in (a, b))
+    pa, pb = (json.loads((f / "run.json").read_text())["provenance"] for f in (a, b))
+    skip = {"run.json"} | (
+        {"report.pdf"} if (pa["date"], pa["git_revision"]) != (pb["date"], pb["git_revision"]) else set()
+    )
+    return sorted(k for k in set(fa) | set(fb) if k not in skip and fa.get(k) != fb.get(k))
+
+
+@pytest.mark.slow
+def test_a_killed_report_resumes_redoes_nothing_and_damaged_ear_entries_are_recomputed(tmp_path):
+    import json
+    import signal
+
+    from conftest import COARSE_REPORT, report_toml
+
+    case = tmp_path / "case.toml"
+    case.write_text(report_toml(COARSE_REPORT))
+
+    def env(name):
+        return dict(
+            os.environ, ISJ_FE_CACHE_DIR=str(tmp_path / name / "fe"), ISJ_CACHE_DIR=str(tmp_path / name / "m")
+        )
+
+    # the uninterrupted run
+    ref = _isj_run(
+        ["report", "--config", str(case), "--out", str(tmp_path / "ref"), "-q"], env("a"), timeout=3600
+    )
+    assert ref.returncode == 0, ref.stderr[-3000:]
+
+    # killed (SIGKILL) once four steps are stored
+    out, fe = tmp_path / "R", tmp_path / "b" / "fe"
+    steps = fe / "report"
+    cmd = ["report", "--config", str(case), "--out", str(out), "-q"]
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "isj", *cmd],
+        env=env("b"),
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    _wait_for(lambda: len(list(steps.glob("[!.]*.json"))) >= 4, proc, timeout_s=3600)
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    assert not out.exists() and len(list(tmp_path.glob(".R.*.partial"))) == 1  # what the kill left
+    finished = {p.name.split("-")[0] for p in steps.glob("[!.]*.json")}  # not a write cut short
+    before = {k: v for k, v in _files_state(fe).items() if ".steps/" not in k}  # greedy steps are used up
+
+    again = _isj_run(cmd, env("b"), timeout=3600)
+    assert again.returncode == 0 and "Traceback" not in again.stderr, again.stderr[-3000:]
+    after = _files_state(fe)
+    assert {k: after.get(k) for k in before} == before  # nothing finished was redone
+    assert finished <= set(json.loads((out / "run.json").read_text())["cached_steps"])
+    assert not list(tmp_path.glob(".R.*"))  # the killed run's staging folder is gone
+    assert _report_differences(tmp_path / "ref", out) == []  # bit for bit
+
+    # damage: the FE-ear entries (reductions, drum modes) and every mesh entry, three ways
+    damaged = sorted(
+        p for p in steps.iterdir() if p.name.split("-")[0] in ("ear", "transmission", "load_path")
+    )
+    meshes = sorted((tmp_path / "b" / "m").rglob("*.npz"))
+    assert damaged and meshes
+    for i, p in enumerate(damaged + meshes):
+        if i % 3 == 0:
+            p.write_bytes(p.read_bytes()[: p.stat().st_size // 2])  # truncated
+        elif i % 3 == 1:
+            p.write_bytes(os.urandom(max(p.stat().st_size, 64)))  # random bytes
+        else:
+            p.unlink()
+            (p / "x").mkdir(parents=True)  # a folder where the entry belongs
+    third = _isj_run([c for c in cmd if c != "-q"], env("b"), timeout=3600)  # warnings shown
+    assert third.returncode == 0 and "Traceback" not in third.stderr, third.stderr[-3000:]
+    assert "deleted, recomputing" in third.stderr
+    cached = set(json.loads((out / "run.json").read_text())["cached_steps"])
+    assert not cached & {p.name.split("-")[0] for p in damaged} and "model" in cached
+    assert _report_differences(tmp_path / "ref", out) == []
+    assert not any(p.is_dir() for p in damaged + meshes)
+
+
+@pytest.mark.slow
+def test_a_killed_adaptive_calibration_resumes_redoes_nothing_and_writes_the_same_artifact(tmp_path):
+    import shutil
+    import signal
+
+    args = ["calibrate", "--adaptive", "--samples", "16", "--validation", "0", "--modal-samples", "0"]
+    args += ["--order", "1", "--resolution", "0.35", "--rounds", "1", "--per-round", "2"]
+    args += ["--guard-sample", "64", "-q"]
+
+    def env(name):
+        here = tmp_path / name
+        return dict(os.environ, ISJ_FE_CACHE_DIR=str(here / "fe"), ISJ_CACHE_DIR=str(here / "m"))
+
+    ref = _isj_run([*args, "--out", str(tmp_path / "a.json")], env("a"))
+    assert ref.returncode == 0, ref.stderr[-3000:]
+    # the surrogate is copied: its own kill is tested above; here the FE designs and the fits
+    fe = tmp_path / "b" / "fe"
+    shutil.copytree(tmp_path / "a" / "fe" / "rom", fe / "rom")
+
+    def records():
+        return [p for p in fe.rglob("*.json") if p.relative_to(fe).parts[0] not in ("rom", "report")]
+
+    cmd = [sys.executable, "-m", "isj", *args, "--out", str(tmp_path / "b.json")]
+    proc = subprocess.Popen(cmd, env=env("b"), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    _wait_for(lambda: len(records()) >= 8, proc, timeout_s=3600)
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    assert not (tmp_path / "b.json").exists()
+    before = _files_state(fe)
+    again = _isj_run([*args, "--out", str(tmp_path / "b.json")], env("b"))
+    assert again.returncode == 0 and "Traceback" not in again.stderr, again.stderr[-3000:]
+    after = _files_state(fe)
+    assert {k: after.get(k) for k in before} == before  # no finished FE design was evaluated again
+    assert len(after) > len(before)
+    assert (tmp_path / "b.json").read_bytes() == (tmp_path / "a.json").read_bytes()  # bit for bit

@@ -5,7 +5,6 @@ whose :meth:`~ReducedModel.evaluate` gives α, β, α + β and β/α with rigoro
 difference from the FE model on the same mesh, at a cost independent of the mesh size.
 """
 
-from .domain import RANGED, DesignSpace, calibration_domain
 from .model import ReducedModel, build_reduced_model, reduced_model, rom_cache_dir
 
 
@@ -18,11 +17,8 @@ def thesis_cases(rom: ReducedModel | None = None, pressure_pa: float | None = No
 
 
 __all__ = [
-    "RANGED",
-    "DesignSpace",
     "ReducedModel",
     "build_reduced_model",
-    "calibration_domain",
     "reduced_model",
     "rom_cache_dir",
     "thesis_cases",

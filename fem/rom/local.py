@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .online import DUALS, SPACES, _solve, evaluate_unit
+from .online import DUALS, SPACES, _solve, derived_bounds, evaluate_unit
 
 #: Parts per ranged modulus: 2 → 2⁵ = 32 sub-boxes.
 SPLIT = 2
@@ -97,8 +97,6 @@ def local_bases(
 
     A sub-box whose sample needs the whole global basis keeps the global arrays as they are.
     """
-    from .offline import relative_bounds
-
     k = int(arr["u_g"].size)
     boxes, sizes = [], []
     for box in range(SPLIT ** len(space.log_lo)):
@@ -162,3 +160,24 @@ def evaluate_local(boxes: list[dict], t: np.ndarray, theta: np.ndarray) -> dict[
                 out[key] = np.empty(theta.shape[0])
             out[key][sel] = val
     return out
+
+
+def relative_bounds(arr: dict, theta: np.ndarray, boxes=None, t=None) -> tuple[np.ndarray, dict]:
+    """(B,) the largest relative bound over α, β and β/α, and the evaluation behind it.
+
+    With ``boxes`` (and the designs' unit coordinates ``t``): through the sub-boxes' local arrays.
+    """
+    if boxes:
+        ev = evaluate_local(boxes, t, theta)
+    else:
+        ev = evaluate_unit(arr, theta)
+    der = derived_bounds(ev["alpha"], ev["alpha_bound"], ev["beta"], ev["beta_bound"])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ra = ev["alpha_bound"] / np.abs(ev["alpha"])
+        rb = ev["beta_bound"] / np.abs(ev["beta"])
+        rr = der["ratio_bound"] / np.abs(der["ratio"])
+    # where α's interval holds 0 the ratio's bound is infinite; rank by ra + rb there, so that
+    # the greedy still goes for the worst design instead of the first infinite one
+    rr = np.where(np.isfinite(rr), rr, ra + rb)
+    rel = np.nan_to_num(np.maximum(np.maximum(ra, rb), rr), nan=np.inf, posinf=np.inf)
+    return rel, ev

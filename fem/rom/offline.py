@@ -13,17 +13,22 @@ with the largest relative output bound, with one factorization for the three loa
 
 from __future__ import annotations
 
+import json
+import shutil
 import time
+from pathlib import Path
 
 import numpy as np
 import scipy.sparse as sp
 
+from isj.cachefile import DamagedEntry, canonical_json, discard, read_npz_entry, write_npz_entry
 from isj.design import REGIONS
+from isj.design_space import DesignSpace
 
 from ..assembly import combine, lame_unit
 from ..solvers import make_solver
-from .domain import DesignSpace
-from .online import DUALS, SPACES, derived_bounds, evaluate_unit
+from .local import relative_bounds
+from .online import DUALS, SPACES
 
 #: A new representer whose X-norm after orthogonalisation falls below this fraction of its own
 #: is dropped (it adds nothing the basis does not span: the six region representers of a
@@ -335,6 +340,66 @@ class Greedy:
         self.timings_s["fe"] += t1 - t0
         self.timings_s["representers"] += time.perf_counter() - t1
 
+    # ---- the state a finished step adds, for resuming an interrupted build (GreedySteps) ----
+
+    def marks(self) -> dict:
+        """Sizes of what grows by appending: per space its basis, orthonormal representers and columns."""
+        sizes = {s: (sp_.k, len(sp_.rep.Q), len(sp_.rep.cols)) for s, sp_ in self.spaces.items()}
+        return {"spaces": sizes, "snapshots": len(self.snapshots)}
+
+    def step_arrays(self, marks: dict) -> dict[str, np.ndarray]:
+        """What the greedy's state gained since ``marks`` (:meth:`marks`), exactly, as arrays.
+
+        Appended columns are given from the mark on; the small arrays that are rebuilt each step
+        (reduced matrices, loads, cross terms) whole; the counters and measured accuracies as
+        they are now. :meth:`apply_step` on a greedy at ``marks`` gives this state bit for bit.
+        """
+        out: dict[str, np.ndarray] = {}
+        for s in SPACES:
+            sp_, (k0, q0, c0) = self.spaces[s], marks["spaces"][s]
+            cols = sp_.rep.cols[c0:]
+            out |= {
+                f"{s}_V": sp_.V.matrix[:, k0:].copy(),
+                f"{s}_XV": sp_.XV.matrix[:, k0:].copy(),
+                f"{s}_Q": sp_.rep.Q.matrix[:, q0:].copy(),
+                f"{s}_XQ": sp_.rep.XQ.matrix[:, q0:].copy(),
+                f"{s}_col_sizes": np.array([c.size for c in cols], dtype=np.int64),
+                f"{s}_cols": np.concatenate(cols) if cols else np.zeros(0),
+                f"{s}_eta": np.array(sp_.rep.eta[c0:], dtype=float),
+                f"{s}_A": sp_.A,
+                f"{s}_g": sp_.g,
+            }
+        out |= {f"cross_{d}": self.cross[d] for d in DUALS}
+        out["snapshots"] = np.array(self.snapshots[marks["snapshots"] :], dtype=float).reshape(-1, 5)
+        out["fe_roundoff"] = np.array(self.fe_roundoff, dtype=float)
+        out["accuracy"] = np.array([self.derive_rel, self.xsolve.rel])
+        out["counts"] = np.array([self._rep_calls, self.xsolve.calls], dtype=np.int64)
+        out["xsolve_norms"] = self.xsolve.norms
+        out["timings"] = np.array([self.timings_s["fe"], self.timings_s["representers"]])
+        return out
+
+    def apply_step(self, a: dict[str, np.ndarray]) -> None:
+        """Take the state :meth:`step_arrays` recorded, on a greedy at that record's marks."""
+        for s in SPACES:
+            sp_ = self.spaces[s]
+            for v, xv in zip(a[f"{s}_V"].T, a[f"{s}_XV"].T, strict=True):
+                sp_.V.append(v)
+                sp_.XV.append(xv)
+            for q, xq in zip(a[f"{s}_Q"].T, a[f"{s}_XQ"].T, strict=True):
+                sp_.rep.Q.append(q)
+                sp_.rep.XQ.append(xq)
+            ends = np.cumsum(a[f"{s}_col_sizes"])
+            sp_.rep.cols.extend(np.split(a[f"{s}_cols"], ends[:-1]) if ends.size else [])
+            sp_.rep.eta.extend(a[f"{s}_eta"].tolist())
+            sp_.A, sp_.g = a[f"{s}_A"], a[f"{s}_g"]
+        self.cross = {d: a[f"cross_{d}"] for d in DUALS}
+        self.snapshots.extend(np.array(e) for e in a["snapshots"])
+        self.fe_roundoff = a["fe_roundoff"].tolist()
+        self.derive_rel, self.xsolve.rel = (float(v) for v in a["accuracy"])
+        self._rep_calls, self.xsolve.calls = (int(v) for v in a["counts"])
+        self.xsolve.norms = a["xsolve_norms"]
+        self.timings_s["fe"], self.timings_s["representers"] = (float(v) for v in a["timings"])
+
     def _region_representers(self, new: dict) -> list[tuple[np.ndarray, np.ndarray]]:
         """X⁻¹A_r v for the six regions of each new basis vector, five solved and one derived.
 
@@ -421,27 +486,102 @@ class Greedy:
         return out
 
 
-def relative_bounds(arr: dict, theta: np.ndarray, boxes=None, t=None) -> tuple[np.ndarray, dict]:
-    """(B,) the largest relative bound over α, β and β/α, and the evaluation behind it.
+#: Bump when what a greedy step file holds changes meaning.
+STEP_FORMAT = 1
 
-    With ``boxes`` (and the designs' unit coordinates ``t``): through the sub-boxes' local arrays.
+#: The arrays of a greedy step file (:meth:`Greedy.step_arrays`, the training set).
+STEP_ARRAYS = frozenset(
+    [f"{s}_{n}" for s in SPACES for n in ("V", "XV", "Q", "XQ", "col_sizes", "cols", "eta", "A", "g")]
+    + [f"cross_{d}" for d in DUALS]
+    + ["snapshots", "fe_roundoff", "accuracy", "counts", "xsolve_norms", "timings", "train"]
+)
+
+
+class GreedySteps:
+    """The finished steps of one greedy on disk, so that a killed build resumes where it stopped.
+
+    Each step (one FE snapshot and its representers) is one checksummed NPZ entry
+    (:mod:`isj.cachefile`), ``<directory>/step-<n>.npz``, written atomically as soon as the step
+    is done. It holds what the step added to the greedy's state (:meth:`Greedy.step_arrays`),
+    the training set and the history so far, and is keyed three ways so that a stale one is
+    never used: the build's cache key (:func:`isj.fem.rom.model.cache_key`, everything the
+    surrogate depends on) with :data:`STEP_FORMAT`, the solver backend and the number of
+    unknowns, and the checksum of the step before it (a chain: a step whose predecessor was
+    rewritten is not taken).
+
+    Parameters
+    ----------
+    directory : the folder of this build's steps
+    key : the build's cache key
     """
-    if boxes:
-        from .local import evaluate_local
 
-        ev = evaluate_local(boxes, t, theta)
-    else:
-        ev = evaluate_unit(arr, theta)
-    der = derived_bounds(ev["alpha"], ev["alpha_bound"], ev["beta"], ev["beta_bound"])
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ra = ev["alpha_bound"] / np.abs(ev["alpha"])
-        rb = ev["beta_bound"] / np.abs(ev["beta"])
-        rr = der["ratio_bound"] / np.abs(der["ratio"])
-    # where α's interval holds 0 the ratio's bound is infinite; rank by ra + rb there, so that
-    # the greedy still goes for the worst design instead of the first infinite one
-    rr = np.where(np.isfinite(rr), rr, ra + rb)
-    rel = np.nan_to_num(np.maximum(np.maximum(ra, rb), rr), nan=np.inf, posinf=np.inf)
-    return rel, ev
+    def __init__(self, directory, key: str):
+        self.directory, self.key = Path(directory), key
+        self.restored = 0  # steps taken from disk by the last restore
+        self._prev = ""
+        self._marks = None
+        self._ident = ""
+
+    def _path(self, n: int):
+        return self.directory / f"step-{n:04d}.npz"
+
+    def _identity(self, greedy: Greedy) -> str:
+        return canonical_json(
+            {
+                "key": self.key,
+                "format": STEP_FORMAT,
+                "solver": type(greedy._xs).__name__,
+                "n": int(greedy.X.shape[0]),
+            }
+        )
+
+    def restore(self, greedy: Greedy) -> tuple[np.ndarray, list] | None:
+        """Apply every finished step to a new ``greedy``; (training set, history) of the last, or None.
+
+        A damaged step file is reported (:class:`~isj.errors.CorruptCacheEntry`) and deleted; it
+        and every later one are recomputed.
+        """
+        self._ident = self._identity(greedy)
+        self._marks = greedy.marks()
+        found, n = None, 1
+        while self._path(n).exists():
+            path = self._path(n)
+            try:
+                arrays, digest = read_npz_entry(path)
+                meta = json.loads(str(arrays.pop("step_json")))
+                if (meta.get("identity"), meta.get("step"), meta.get("prev")) != (self._ident, n, self._prev):
+                    raise DamagedEntry("written by another build or after another step")
+                if set(arrays) != STEP_ARRAYS:
+                    raise DamagedEntry("not the arrays of a greedy step")
+                greedy.apply_step(arrays)
+            except (DamagedEntry, KeyError, TypeError, ValueError) as exc:
+                discard(path, "surrogate greedy step", str(exc), stacklevel=2)
+                break
+            self._prev, self._marks = digest, greedy.marks()
+            found = (arrays["train"], meta["history"])
+            n += 1
+        for later in sorted(self.directory.glob("step-*.npz")):  # past a break: never usable
+            if later.name > self._path(n - 1).name:
+                later.unlink(missing_ok=True)
+        self.restored = n - 1
+        return found
+
+    def save(self, greedy: Greedy, train: np.ndarray, history: list) -> None:
+        """Store the step just finished (the greedy's new snapshot), atomically."""
+        if self._marks is None:
+            self._ident, self._marks = self._identity(greedy), greedy.marks()
+        n = len(greedy.snapshots)
+        meta = {"identity": self._ident, "step": n, "prev": self._prev, "history": history}
+        arrays = greedy.step_arrays(self._marks) | {
+            "train": np.asarray(train, dtype=float),
+            "step_json": np.array(canonical_json(meta)),
+        }
+        self._prev = write_npz_entry(self._path(n), arrays)
+        self._marks = greedy.marks()
+
+    def clear(self) -> None:
+        """Remove the steps (the finished surrogate is stored)."""
+        shutil.rmtree(self.directory, ignore_errors=True)
 
 
 def run_greedy(
@@ -453,6 +593,7 @@ def run_greedy(
     margin: float = 0.65,
     max_steps: int = 80,
     progress=None,
+    steps: GreedySteps | None = None,
 ) -> dict:
     """Greedy to ``safety·tol`` on ``train``, then until every ``validate`` design is within ``margin·tol``.
 
@@ -462,10 +603,20 @@ def run_greedy(
 
     A validation design above ``margin·tol`` joins the training set and the greedy goes on.
     Returns the history: per step the design added and the training set's worst relative bound.
+
+    With ``steps`` each finished step is stored, and the steps a killed run stored are taken
+    first: the run goes on from the last one, to the same result bit for bit (every choice
+    the greedy makes follows from its state, which the steps restore exactly).
     """
     history = []
     train = np.asarray(train, dtype=float)
-    greedy.add_snapshot(greedy.space.center())
+    resumed = steps.restore(greedy) if steps is not None else None
+    if resumed is not None:
+        train, history = resumed
+    else:
+        greedy.add_snapshot(greedy.space.center())
+        if steps is not None:
+            steps.save(greedy, train, history)
     while True:
         arr = greedy.arrays()
         rel, _ = relative_bounds(arr, greedy.space.theta(train))
@@ -478,6 +629,8 @@ def run_greedy(
             progress(history[-1])
         if rel[worst] > safety * tol and len(greedy.snapshots) < max_steps:
             greedy.add_snapshot(train[worst])
+            if steps is not None:
+                steps.save(greedy, train, history)
             continue
         vrel, _ = relative_bounds(arr, greedy.space.theta(validate))
         over = np.flatnonzero(vrel > margin * tol)
