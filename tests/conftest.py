@@ -52,6 +52,18 @@ def pytest_terminal_summary(terminalreporter):
         terminalreporter.write_line("skipped for lack of an optional backend: " + "; ".join(skipped))
 
 
+#: Fixtures so expensive that every test using one belongs to the slow tier: the first user
+#: pays their cost, and the fast tier must not depend on which test that is.
+SLOW_FIXTURES = frozenset({"report"})
+
+
+def pytest_collection_modifyitems(config, items):
+    """Tests that use a :data:`SLOW_FIXTURES` fixture are marked slow (``-m "not slow"`` skips them)."""
+    for item in items:
+        if SLOW_FIXTURES.intersection(getattr(item, "fixturenames", ())):
+            item.add_marker(pytest.mark.slow)
+
+
 @pytest.fixture(scope="session", autouse=True)
 def _private_mesh_cache(tmp_path_factory):
     """Keep the tests' meshes out of the user's cache (and start from an empty one)."""

@@ -417,6 +417,7 @@ def test_shipped_calibration_fe_checks_are_fe():
         assert fe["beta_rad"] == pytest.approx(row["fe_beta_rad"], rel=1e-9)
 
 
+@pytest.mark.slow
 def test_calibrate_adaptive_cli_writes_the_loop_and_the_map(tmp_path, capsys, monkeypatch):
     # the command's wiring on a coarse P1 mesh: FE through the runner, a stand-in surrogate (the
     # lumped model with the shipped factors; FE on this mesh lies far from it, so the loop's FE
@@ -451,6 +452,7 @@ def test_calibrate_adaptive_cli_writes_the_loop_and_the_map(tmp_path, capsys, mo
     assert cal.region["factors"] == cal.factors and 0 <= cal.region["fraction_outside"] <= 1
 
 
+@pytest.mark.slow
 def test_cached_surrogate_finds_what_reduced_model_stored_and_never_builds(tmp_path, monkeypatch):
     # isj lumped solve's look-up names the cache entry as isj.fem.rom.reduced_model does
     from isj.fem.rom import reduced_model, rom_cache_dir

@@ -307,6 +307,7 @@ def test_plot_returns_artists():
     assert len(one) == 1 and one[0].axes is ax and ax.get_yscale() == "log"
 
 
+@pytest.mark.slow
 def test_library_plots_leave_the_backend_and_pyplot_alone(tmp_path):
     """A notebook's backend stays what it was and pyplot is never imported (checked in a fresh process)."""
     r = _python(
@@ -335,6 +336,7 @@ def test_library_plots_leave_the_backend_and_pyplot_alone(tmp_path):
 # ---- FE results --------------------------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_fe_static_to_dict_keys_are_fem_solve_json(coarse_model):
     r = _cli("fem", "solve", "--json", "--resolution", "0.35", "--gap-e", "4e6")
     assert r.returncode == 0, r.stderr
@@ -378,6 +380,7 @@ def test_fe_harmonic_response_is_harmonic_outputs(coarse_model):
     assert lumped.output_names == r.output_names and lumped.output_units == r.output_units
 
 
+@pytest.mark.slow
 def test_fe_ear_response_and_static_to_dict():
     # its own joint model (the mesh is cached): the ear refactors the joint's matrices
     ear = isj.MiddleEarModel(joint=isj.PedicleJointModel(order=2, resolution=0.35))

@@ -23,6 +23,8 @@ import pytest
 from isj.app import state
 from isj.errors import InvalidParameter
 
+pytestmark = pytest.mark.slow  # the app in a browser and FE verify
+
 CHROMIUM = "/usr/bin/chromium"
 
 

@@ -14,6 +14,8 @@ from isj.cli import main
 from isj.design_space import DesignSpace
 from isj.errors import CorruptCalibration
 
+pytestmark = pytest.mark.slow  # FE designs for a calibration (module fixture)
+
 COARSE_FE = {"order": 2, "resolution": 0.5}
 # pedicle, gap and capsule moduli vary; plate and stapes stay at their defaults
 JOINT_SPACE = DesignSpace(plate_e_pa=(1e9, 1e9), stapes_e_pa=(1e9, 1e9))

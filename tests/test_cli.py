@@ -504,6 +504,7 @@ def test_modes_vtu_dir_rewritten_but_not_a_foreign_folder(capsys, tmp_path):
     assert code == 2 and "--vtu-dir" in err and "notes.txt" in err
 
 
+@pytest.mark.slow
 def test_a_command_writes_nothing_into_the_home_folder(tmp_path):
     """``isj sweep`` with an FE check, from an empty home in a fresh process: gmsh meshes and
     matplotlib plots, and the home folder stays empty (matplotlib's font cache goes into the FE

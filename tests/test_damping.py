@@ -122,6 +122,7 @@ def test_energy_per_cycle_is_2_pi_eta_u_max(coarse_model):
         assert work == pytest.approx(np.pi * np.real(u.conj() @ (L @ u)), rel=1e-8)  # energy balance
 
 
+@pytest.mark.slow
 def test_energy_balance_with_the_published_damping(coarse_model):
     """Non-proportional damping near resonance: the pressure's work per cycle is π ûᴴ(L + ωC)û."""
     m = Materials()
@@ -266,6 +267,7 @@ def test_rayleigh_warning_names_the_term_and_where_it_exceeds_one_half():
 # ---- the isolated model with the new defaults (issue 13 part 7) --------------------------------
 
 
+@pytest.mark.slow
 @pytest.mark.filterwarnings("ignore::isj.errors.DampingWarning")
 def test_isolated_model_with_the_published_damping(coarse_model):
     """No roll-off from the damping law below f1/2 and a visible first resonance (FE), and the chain's

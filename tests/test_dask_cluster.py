@@ -30,6 +30,8 @@ pytest.importorskip("distributed")
 from isj.calibration.runner import design_key, run_geometry_designs  # noqa: E402
 from isj.fem.batch import evaluate_design, fe_settings  # noqa: E402
 
+pytestmark = pytest.mark.slow  # a Dask cluster of subprocesses
+
 #: Seconds allowed for the cluster to start, and for the whole Dask run.
 START_TIMEOUT_S = 90
 RUN_TIMEOUT_S = 300

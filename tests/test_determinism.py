@@ -14,6 +14,8 @@ import textwrap
 
 import pytest
 
+pytestmark = pytest.mark.slow  # runs in fresh processes, reports included
+
 # as tests/test_report.py's coarse report, smaller still: every step runs, in ~30 s
 COARSE = {
     "mesh": {"order": 2, "resolution": 0.35},

@@ -40,6 +40,7 @@ def _numbers(line: str) -> list[float]:
     return [float(x) for x in re.findall(r"[-+]?\d+\.\d+", line)]
 
 
+@pytest.mark.slow
 def test_tutorial_python_session(tmp_path):
     script = (DOCS / "examples" / "first_session.py").read_text(encoding="utf-8")
     code = script.split('"""', 2)[2].strip()  # the script without its docstring
@@ -193,6 +194,7 @@ def test_commands_in_the_guides_parse():
         assert callable(parsed.func), (name, command)
 
 
+@pytest.mark.slow
 def test_readme_python_quick_start(tmp_path):
     """The README's Python block runs, and prints what its last comment says (to its 4 digits)."""
     text = (ROOT / "README.md").read_text(encoding="utf-8")

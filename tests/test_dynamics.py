@@ -39,6 +39,7 @@ def timoshenko_factor(length, depth):
     return 1 - 0.5 * (1.8751 / length) ** 2 * r2 * (1 + 1 / (5 / 6 * 0.5))
 
 
+@pytest.mark.slow
 def test_first_bending_frequencies_match_beam_theory():
     L = 20 * B  # slender: L/h = 20 (x) and 6.9 (y)
     model = cantilever(L, (2, 4, 40))
@@ -143,6 +144,7 @@ def test_complex_pardiso_matches_superlu_and_dense():
         Damping.preset("undamped"),
     ],
 )
+@pytest.mark.slow
 def test_harmonic_matches_the_block_solve(coarse_model, damping):
     """Krylov (the default) and complex-symmetric PARDISO against the real 2n × 2n block system."""
     m = Materials(pedicle_e_pa=3e9)
@@ -161,6 +163,7 @@ def test_harmonic_matches_the_block_solve(coarse_model, damping):
         assert np.linalg.norm(u_direct[i] - ref) < 1e-8 * np.linalg.norm(ref)
 
 
+@pytest.mark.slow
 def test_harmonic_superlu_fallback(coarse_model):
     """``solver="superlu"`` (and machines without PARDISO) solve the complex matrix with SuperLU."""
     m = Materials(pedicle_e_pa=3e9)

@@ -374,6 +374,7 @@ def test_undamped_response_at_1_hz_is_the_static_one(variant, request):
     assert abs(r.umbo_m_per_pa[0].imag) == 0.0  # undamped: real
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("variant", ["rigid", "ear"])
 def test_loss_factor_alone_divides_the_static_response(variant, request):
     model = request.getfixturevalue(variant)
@@ -391,6 +392,7 @@ def test_loss_factor_alone_divides_the_static_response(variant, request):
     assert r.umbo_m_per_pa[0] == pytest.approx(s.umbo_m_per_pa / (1 + 2j * np.pi * b), rel=2e-6)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("variant", ["rigid", "ear"])
 def test_natural_frequencies_positive_and_modes_mass_orthonormal(variant, request):
     model = request.getfixturevalue(variant)

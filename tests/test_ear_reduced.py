@@ -24,6 +24,8 @@ from isj.fem.model import PedicleJointModel
 
 from isj.damping import Damping
 
+pytestmark = pytest.mark.slow  # reduces the FE ear (module fixture)
+
 #: The band the test model is reduced for: past the first drum modes, as far as the sweep's 20 kHz.
 FMAX_HZ = 20e3
 MAG, PHASE_DEG = 1e-3, 0.1

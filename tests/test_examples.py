@@ -38,6 +38,8 @@ from isj.lumped.model import MODULI, static_response
 
 import isj
 
+pytestmark = pytest.mark.slow  # runs the examples in subprocesses
+
 ROOT = Path(__file__).resolve().parent.parent
 EXAMPLES = ROOT / "examples"
 TESTED = {"solve_design", "lumped_million", "frequency_sweep", "whole_ear", "custom_calibration"}

@@ -22,6 +22,8 @@ from isj.lumped.model import MODULI, static_response
 from isj._cli import explore as cli_explore
 from isj.cli import main
 
+pytestmark = pytest.mark.slow  # builds a small surrogate (module fixture)
+
 ORDER, RESOLUTION = 1, 0.35
 MESH = ["--order", str(ORDER), "--resolution", str(RESOLUTION)]
 PRESSURE = 28.5

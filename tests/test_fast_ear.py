@@ -25,6 +25,8 @@ from isj.design import Materials
 from isj.design_space import DesignSpace
 from isj.errors import InvalidParameter
 
+pytestmark = pytest.mark.slow  # builds a fast ear on the coarse mesh (module fixture)
+
 #: The targets to 10 kHz (issue 24): H_V (dB, degrees), ΔH_V (dB, degrees).
 HV_DB, HV_DEG, DHV_DB, DHV_DEG = 0.5, 3.0, 0.1, 1.0
 FREQ_HZ = np.geomspace(100.0, 20e3, 40)

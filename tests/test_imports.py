@@ -106,6 +106,7 @@ def test_gmsh_only_inside_fem_functions():
     assert not bad, bad
 
 
+@pytest.mark.slow
 def test_packages_import_without_gmsh():
     """With gmsh made unimportable, every package and module still imports."""
     mods = sorted(
@@ -150,6 +151,7 @@ def test_one_namespace_editable(tmp_path):
     assert Path(r.stdout.strip()).resolve() == ROOT / "fem" / "__init__.py"
 
 
+@pytest.mark.slow
 def test_one_namespace_wheel(tmp_path):
     """A wheel built from the repository holds isj/fem, isj/lumped, ... and no top-level fem."""
     import zipfile

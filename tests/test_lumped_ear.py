@@ -165,6 +165,7 @@ def test_bad_frequency():
 # ---------------------------------------------------------------- isj ear sweep
 
 
+@pytest.mark.slow
 def test_cli_ear_sweep_rigid(tmp_path, capsys):
     from isj.cli import main
 
@@ -215,6 +216,7 @@ def test_cli_ear_sweep_rigid(tmp_path, capsys):
     assert max(summary["fe_checks"][1][f"{k}_rel_error"] for k in ("umbo_m", "stapes_m")) < 0.01
 
 
+@pytest.mark.slow
 def test_cli_ear_sweep_coarse_joint(tmp_path, capsys):
     from isj.cli import main
 

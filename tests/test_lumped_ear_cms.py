@@ -215,6 +215,7 @@ def test_drum_modulus_rescaling_is_exact(modes):
         assert getattr(scaled, f) == pytest.approx(getattr(fresh, f), rel=1e-8), f
 
 
+@pytest.mark.slow
 def test_joint_inside_against_fe(drum, modes, coarse_model):
     from isj.fem.ear.middle_ear import MiddleEarModel
 

@@ -61,6 +61,7 @@ def exact_volumes(g: Geometry) -> dict[str, float]:
     }
 
 
+@pytest.mark.slow
 def test_arrays_and_regions(joint, cantilever):
     for m in (joint, cantilever):
         assert m.points.dtype == np.float64 and m.points.shape == (m.n_nodes, 3)
@@ -145,12 +146,14 @@ def test_free_interface_is_cut_and_bonded_ends_are_shared(joint):
     assert all(tuple(p) in cap_pts for p in joint.points[inner])
 
 
+@pytest.mark.slow
 def test_deterministic(joint):
     assert mesh_pedicle_joint(cache_dir=False).content_hash() == joint.content_hash()
     a = mesh_cantilever(resolution=1.5, cache_dir=False)
     assert mesh_cantilever(resolution=1.5, cache_dir=False).content_hash() == a.content_hash()
 
 
+@pytest.mark.slow
 def test_resolution_refines(joint, cantilever):
     assert mesh_pedicle_joint(resolution=2, cache_dir=False).n_tets > joint.n_tets
     assert mesh_cantilever(resolution=2, cache_dir=False).n_tets > cantilever.n_tets
@@ -160,6 +163,7 @@ def test_resolution_refines(joint, cantilever):
     assert a.content_hash() == b.content_hash()
 
 
+@pytest.mark.slow
 def test_other_geometry(cantilever):
     g = G.replace(pedicle_x_m=80e-6, capsule_bond_m=40e-6, capsule_thickness_m=20e-6)
     m = mesh_pedicle_joint(g, sizes=COARSE, cache_dir=False)

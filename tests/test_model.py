@@ -55,6 +55,7 @@ def test_mirror_symmetry_in_y(coarse_model):
         assert abs(w[0]) < 0.02 * abs(w[1]) and abs(w[2]) < 0.02 * abs(w[1])
 
 
+@pytest.mark.slow
 def test_stiffer_parts_flex_less(coarse_model):
     base = coarse_model.static()
     res = {c.name: coarse_model.static(c.materials()) for c in THESIS_CASES}
@@ -86,6 +87,7 @@ def test_bad_materials_are_named(kwargs, word):
         Materials(**kwargs)
 
 
+@pytest.mark.slow
 def test_default_pressure_reproduces_thesis_base_case():
     """Default mesh, P2: α + β at the default pressure is the thesis's 13.433 µrad.
 
@@ -98,6 +100,7 @@ def test_default_pressure_reproduces_thesis_base_case():
     assert r.sum_rad == pytest.approx(THESIS_BASE_SUM_RAD, rel=0.03)
 
 
+@pytest.mark.slow
 def test_base_case_converges_under_refinement():
     """α and β on the default mesh and on one 1.41× finer approach the converged values.
 

@@ -47,6 +47,7 @@ def _clean_env(tmp_path, **extra) -> dict:
     return env
 
 
+@pytest.mark.slow
 @pytest.mark.skipif("pardiso" not in solvers.available_backends(), reason="PARDISO not installed")
 def test_gmsh_between_two_factorizations_does_not_crash(tmp_path):
     from isj.fem.cache import save_mesh
@@ -130,6 +131,7 @@ def test_lanczos_start_is_fixed_and_not_degenerate():
     assert a.shape == (1000,) and -1 <= a.min() < -0.9 and 0.9 < a.max() < 1
 
 
+@pytest.mark.slow
 def test_whole_ear_takes_its_joint_length_from_a_joint_of_another_stack_height():
     import numpy as np
     from isj.fem.ear.middle_ear import MiddleEarModel
@@ -200,6 +202,7 @@ def _snapshot(folder) -> dict:
     return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
 
 
+@pytest.mark.slow
 def test_report_with_another_stack_height_completes_and_a_failed_run_leaves_the_old_one(
     tmp_path, monkeypatch
 ):
@@ -303,6 +306,7 @@ def test_geometry_outside_its_physical_bounds_is_refused_naming_the_field(name):
     assert lo <= getattr(Geometry(), name) <= hi  # the default is inside
 
 
+@pytest.mark.slow
 def test_degenerate_gap_is_refused_and_the_thinnest_allowed_gap_meshes_well():
     from isj.fem.mesh import mesh_pedicle_joint
     from isj.fem.quality import mesh_quality
@@ -336,6 +340,7 @@ def test_nearly_incompressible_materials_warn_of_locking(coarse_model):
         assert check_locking(0.46, 1)  # P1 elements lock earlier
 
 
+@pytest.mark.slow
 def test_mesh_size_estimate_matches_meshes_it_was_not_fitted_to():
     from isj.fem.mesh import mesh_pedicle_joint
     from isj.fem.model import ElasticModel
@@ -454,6 +459,7 @@ def _build_meta(rom) -> dict:
     }
 
 
+@pytest.mark.slow
 def test_a_killed_rom_build_resumes_at_its_last_step_to_the_same_bits(tmp_path, monkeypatch):
     import json
     import signal
@@ -494,6 +500,7 @@ def test_a_killed_rom_build_resumes_at_its_last_step_to_the_same_bits(tmp_path, 
     assert not list(rom_cache_dir().glob("*.steps"))
 
 
+@pytest.mark.slow
 def test_damaged_or_stale_rom_build_steps_are_never_used(tmp_path, monkeypatch):
     import isj.fem.rom.offline as offline
     import numpy as np
@@ -549,6 +556,7 @@ def test_damaged_or_stale_rom_build_steps_are_never_used(tmp_path, monkeypatch):
     assert np.array_equal(third.arrays["u_R"], clean.arrays["u_R"])
 
 
+@pytest.mark.slow
 def test_two_rom_builds_at_once_one_waits_and_loads_what_the_other_built(tmp_path):
     import json
     import time
@@ -749,7 +757,9 @@ def test_a_killed_report_resumes_redoes_nothing_and_damaged_ear_entries_are_reco
     cached = set(json.loads((out / "run.json").read_text())["cached_steps"])
     assert not cached & {p.name.split("-")[0] for p in damaged} and "model" in cached
     assert _report_differences(tmp_path / "ref", out) == []
-    assert not any(p.is_dir() for p in damaged + meshes)
+    # every damaged step entry was read, so a folder standing where one belongs is gone; a mesh
+    # entry is read only by a step that is recomputed, so a damaged one may wait for its next use
+    assert not any(p.is_dir() for p in damaged)
 
 
 @pytest.mark.slow

@@ -326,6 +326,7 @@ def _slow(family: str):
     return pytest.param(family, marks=pytest.mark.slow) if family in ("ear", "surrogate") else family
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("family", [_slow(f) for f in COMPUTE])
 def test_results_match_the_reference_of_their_version(family):
     msgs, skipped = problems(family)

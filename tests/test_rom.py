@@ -16,6 +16,8 @@ import scipy.sparse.linalg as spla
 from isj.cachefile import read_npz_entry
 from isj.errors import CorruptCacheEntry, InvalidParameter
 
+pytestmark = pytest.mark.slow  # builds a surrogate (module fixture)
+
 ORDER, RESOLUTION = 1, 0.35
 
 

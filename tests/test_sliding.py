@@ -163,6 +163,7 @@ def test_sliding_interface_is_tied_in_z_only(sliding_model):
     assert jump > 0.01 * np.abs(u[p, 0]).max()  # tangential free: the faces slide
 
 
+@pytest.mark.slow
 def test_seven_cases_bonded_against_sliding(coarse_model, sliding_model, layer_model):
     """Energy balance, release raises the compliance, the capsule takes the whole shear."""
     layer = layer_model

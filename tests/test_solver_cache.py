@@ -20,7 +20,10 @@ from isj.fem.solvers import _mkl_rt_path, available_backends
 from isj.design import Materials
 from isj.errors import CorruptCacheEntry
 
-pytestmark = pytest.mark.skipif("pardiso" not in available_backends(), reason="needs PARDISO (pypardiso)")
+pytestmark = [
+    pytest.mark.skipif("pardiso" not in available_backends(), reason="needs PARDISO (pypardiso)"),
+    pytest.mark.slow,  # FE solves in subprocesses
+]
 
 #: A coarse P1 model: any pattern will do.
 ORDER, RESOLUTION = 1, 0.35

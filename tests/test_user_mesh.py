@@ -245,6 +245,7 @@ def test_mesh_options_refused(capsys, files, tmp_path):
     assert "meshio cannot read it" in refused(capsys, tmp_path / "junk.msh")
 
 
+@pytest.mark.slow
 def test_gmsh_41_tetra10_file_in_micrometres(capsys, tmp_path):
     """What a user's gmsh script writes: format 4.1, second order, µm; α and β as built in."""
     import gmsh
