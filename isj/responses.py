@@ -280,3 +280,39 @@ class FrequencyResponse:
             ax_ph.set_ylabel("phase (deg)")
         (ax_ph if ax_ph is not None else ax_mag).set_xlabel("frequency (Hz)")
         return artists
+
+
+#: Octave bands from 100 Hz to 20 kHz (Hz), the last one cut at 20 kHz.
+OCTAVE_BANDS_HZ = tuple((100.0 * 2**k, min(100.0 * 2 ** (k + 1), 20e3)) for k in range(8))
+
+
+def band_deviation(freq_hz, response, reference, bands=OCTAVE_BANDS_HZ) -> list[dict]:
+    """Δ = ``response`` / ``reference`` (complex, (n_freq,)) per band: dB and degrees (±180°).
+
+    Returns, per band (lo, hi) (Hz; a frequency f belongs to it when lo ≤ f < hi, the last band
+    including hi), ``band_hz``, ``n_freq`` and, when it holds any frequency, ``mean_abs_db``,
+    ``max_abs_db``, ``mean_db`` (signed), ``mean_abs_deg``, ``max_abs_deg``, ``max_abs_db_at_hz``.
+    """
+    f = check_frequencies(freq_hz)
+    ratio = np.asarray(response, complex) / np.asarray(reference, complex)
+    if ratio.shape != f.shape:
+        raise InvalidParameter(f"response, reference: shape {ratio.shape} must match freq_hz ({f.size})")
+    d_db = 20 * np.log10(np.abs(ratio))
+    d_deg = (np.degrees(np.angle(ratio)) + 180.0) % 360.0 - 180.0
+    out = []
+    for j, (lo, hi) in enumerate(bands):
+        last = j == len(bands) - 1
+        m = (f >= lo) & ((f <= hi) if last else (f < hi))
+        row = {"band_hz": [float(lo), float(hi)], "n_freq": int(m.sum())}
+        if m.any():
+            a, p = np.abs(d_db[m]), np.abs(d_deg[m])
+            row |= {
+                "mean_abs_db": float(a.mean()),
+                "max_abs_db": float(a.max()),
+                "max_abs_db_at_hz": float(f[m][np.argmax(a)]),
+                "mean_db": float(d_db[m].mean()),
+                "mean_abs_deg": float(p.mean()),
+                "max_abs_deg": float(p.max()),
+            }
+        out.append(row)
+    return out

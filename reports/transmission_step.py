@@ -22,6 +22,7 @@ import dataclasses
 import numpy as np
 
 from isj.cases import case_by_name
+from isj.responses import OCTAVE_BANDS_HZ, band_deviation
 
 #: Scale factors of the load-path study (docs/transmission.md §12.4).
 SCALES = (0.1, 10.0)
@@ -202,39 +203,8 @@ def cavity_section(cfg, freq_hz, fe: dict, cav: dict, cases: list[str]) -> tuple
 
 
 #: Octave bands of the circuit comparison, from 100 Hz, the last cut at 20 kHz (Hz); the same as
-#: :data:`isj.studies.circuit_comparison.OCTAVE_BANDS_HZ` (``tests/test_report.py`` checks the
-#: step's deviations against that study's on the stored H_V).
-OCTAVE_BANDS_HZ = tuple((100.0 * 2**k, min(100.0 * 2 ** (k + 1), 20e3)) for k in range(8))
-
 #: How the circuit is labelled wherever it appears.
 CIRCUIT_LABEL = "published model (Bruce et al. 2003), not a measurement"
-
-
-def band_deviation(freq_hz, ear, reference) -> list[dict]:
-    """Δ = ``ear`` / ``reference`` per octave band (:data:`OCTAVE_BANDS_HZ`; lo ≤ f < hi, the last
-    band including hi): ``band_hz``, ``n_freq`` and, for a band with frequencies, the mean and the
-    largest |Δ| in dB (and where), the signed mean in dB, the mean and the largest |Δ| in degrees
-    (wrapped to ±180°), as :func:`isj.studies.circuit_comparison.band_deviation` defines them."""
-    f = np.asarray(freq_hz, float)
-    ratio = np.asarray(ear, complex) / np.asarray(reference, complex)
-    d_db = 20 * np.log10(np.abs(ratio))
-    d_deg = (np.degrees(np.angle(ratio)) + 180.0) % 360.0 - 180.0
-    out = []
-    for k, (lo, hi) in enumerate(OCTAVE_BANDS_HZ):
-        m = (f >= lo) & ((f <= hi) if k == len(OCTAVE_BANDS_HZ) - 1 else (f < hi))
-        row = {"band_hz": [float(lo), float(hi)], "n_freq": int(m.sum())}
-        if m.any():
-            a, p = np.abs(d_db[m]), np.abs(d_deg[m])
-            row |= {
-                "mean_abs_db": float(a.mean()),
-                "max_abs_db": float(a.max()),
-                "max_abs_db_at_hz": float(f[m][np.argmax(a)]),
-                "mean_db": float(d_db[m].mean()),
-                "mean_abs_deg": float(p.mean()),
-                "max_abs_deg": float(p.max()),
-            }
-        out.append(row)
-    return out
 
 
 def _curves(u, p) -> dict:

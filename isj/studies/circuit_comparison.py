@@ -27,10 +27,8 @@ from isj.damping import resolve
 from isj.ear import EarGeometry
 from isj.errors import InvalidParameter
 from isj.lumped.circuit import CatCircuit
+from isj.responses import OCTAVE_BANDS_HZ, band_deviation
 from isj.validate import check_frequencies
-
-#: Octave bands from 100 Hz; the last one is cut at 20 kHz (Hz).
-OCTAVE_BANDS_HZ = tuple((100.0 * 2**k, min(100.0 * 2 ** (k + 1), 20e3)) for k in range(8))
 
 #: The comparison's default frequencies: 200 log-spaced from 100 Hz to 20 kHz (Hz).
 DEFAULT_FREQ_HZ = np.geomspace(100.0, 20e3, 200)
@@ -44,42 +42,6 @@ STATEMENT = (
     "& Lynch 1992; cochlear load after Lynch, Nedzelnitsky & Peake 1982) is a published model fitted "
     "to cat measurements, not a measurement. Nothing in the ear is tuned to it."
 )
-
-
-def _wrap_deg(x: np.ndarray) -> np.ndarray:
-    return (np.asarray(x) + 180.0) % 360.0 - 180.0
-
-
-def band_deviation(freq_hz, ear, reference, bands=OCTAVE_BANDS_HZ) -> list[dict]:
-    """Δ = ``ear`` / ``reference`` (complex, (n_freq,)) per band: dB and degrees (±180°).
-
-    Returns, per band (lo, hi) (Hz; a frequency f belongs to it when lo ≤ f < hi, the last band
-    including hi), ``band_hz``, ``n_freq`` and, when it holds any frequency, ``mean_abs_db``,
-    ``max_abs_db``, ``mean_db`` (signed), ``mean_abs_deg``, ``max_abs_deg``, ``max_abs_db_at_hz``.
-    """
-    f = check_frequencies(freq_hz)
-    ratio = np.asarray(ear, complex) / np.asarray(reference, complex)
-    if ratio.shape != f.shape:
-        raise InvalidParameter(f"ear, reference: shape {ratio.shape} must match freq_hz ({f.size})")
-    d_db = 20 * np.log10(np.abs(ratio))
-    d_deg = _wrap_deg(np.degrees(np.angle(ratio)))
-    out = []
-    for j, (lo, hi) in enumerate(bands):
-        last = j == len(bands) - 1
-        m = (f >= lo) & ((f <= hi) if last else (f < hi))
-        row = {"band_hz": [float(lo), float(hi)], "n_freq": int(m.sum())}
-        if m.any():
-            a, p = np.abs(d_db[m]), np.abs(d_deg[m])
-            row |= {
-                "mean_abs_db": float(a.mean()),
-                "max_abs_db": float(a.max()),
-                "max_abs_db_at_hz": float(f[m][np.argmax(a)]),
-                "mean_db": float(d_db[m].mean()),
-                "mean_abs_deg": float(p.mean()),
-                "max_abs_deg": float(p.max()),
-            }
-        out.append(row)
-    return out
 
 
 def _curve(x: np.ndarray, db: bool) -> dict:
