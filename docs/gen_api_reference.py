@@ -25,6 +25,8 @@ import shutil
 import tomllib
 from pathlib import Path
 
+from mkdocs.plugins import event_priority
+
 ROOT = Path(__file__).resolve().parent.parent
 #: Where the installed layout is made (``build/`` is ignored by git).
 STAGE = ROOT / "build" / "docs-api"
@@ -229,6 +231,9 @@ def vocabulary_markdown() -> str:
     return "\n".join(lines) + "\n"
 
 
+# before every plugin (default priority 0): mkdocstrings resolves its ``paths`` in its own
+# on_config, and a folder that does not exist yet (a fresh clone) is left out
+@event_priority(100)
 def on_config(config):
     """mkdocs hook: stage the package before mkdocstrings reads it."""
     stage()
