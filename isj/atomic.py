@@ -34,6 +34,18 @@ from pathlib import Path
 from isj.errors import InvalidParameter
 
 
+def _process_umask() -> int:
+    """The process's umask (read by setting it and setting it back)."""
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
+#: Mode of every file written here: what ``open`` would give (0o666 less the umask), not the
+#: owner-only 0o600 of the temporary file it was written as.
+FILE_MODE = 0o666 & ~_process_umask()
+
+
 def atomic_write(path: str | os.PathLike, write: Callable[[str], object], *, fsync: bool = False) -> Path:
     """Call ``write(tmp_path)``, then move the file it wrote onto ``path``.
 
@@ -57,6 +69,7 @@ def atomic_write(path: str | os.PathLike, write: Callable[[str], object], *, fsy
     os.close(fd)
     try:
         write(tmp)
+        os.chmod(tmp, FILE_MODE)
         if fsync:
             with open(tmp, "r+b") as f:
                 os.fsync(f.fileno())

@@ -797,3 +797,20 @@ def test_a_killed_adaptive_calibration_resumes_redoes_nothing_and_writes_the_sam
     assert {k: after.get(k) for k in before} == before  # no finished FE design was evaluated again
     assert len(after) > len(before)
     assert (tmp_path / "b.json").read_bytes() == (tmp_path / "a.json").read_bytes()  # bit for bit
+
+
+def test_written_files_have_the_mode_open_would_give(tmp_path):
+    """Outputs are readable as the umask allows, not owner-only as their temporary files were."""
+    import subprocess
+    import sys
+
+    code = (
+        "import os, sys; os.umask(0o027)\n"
+        "from isj.atomic import atomic_write_text\n"
+        "p = atomic_write_text(sys.argv[1], 'x')\n"
+        "print(oct(os.stat(p).st_mode & 0o777))\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code, str(tmp_path / "a.txt")], capture_output=True, text=True, check=True
+    )
+    assert out.stdout.strip() == oct(0o640)
