@@ -382,12 +382,22 @@ def _build_section(name: str, values: dict):
         raise ConfigError(f"{where}{exc}") from None
 
 
+def _need(ok: bool, where: str, value, rule: str) -> None:
+    if not ok:
+        raise ConfigError(f"{where} = {value!r}: {rule}")
+
+
 def _check(cfg: ReportConfig) -> None:
     """Ranges the dataclasses do not check themselves; one line per problem."""
+    _check_design(cfg)
+    _check_studies(cfg)
+    _check_bands(cfg)
+    _check_sliding(cfg)
+    _check_guard_and_uq(cfg)
 
-    def need(ok: bool, where: str, value, rule: str) -> None:
-        if not ok:
-            raise ConfigError(f"{where} = {value!r}: {rule}")
+
+def _check_design(cfg: ReportConfig) -> None:
+    """The design's moduli and pressure, and the mesh."""
 
     d = cfg.design  # its moduli and ν were checked by Materials on construction; here their ranges
     try:
@@ -396,43 +406,51 @@ def _check(cfg: ReportConfig) -> None:
         check_pressure(d.pressure_pa, "design.pressure_pa")
     except InvalidParameter as exc:
         raise ConfigError(str(exc)) from None
-    need(cfg.mesh.order in (1, 2), "mesh.order", cfg.mesh.order, "must be 1 or 2")
-    need(0.2 <= cfg.mesh.resolution <= 4, "mesh.resolution", cfg.mesh.resolution, "must be in [0.2, 4]")
+    _need(cfg.mesh.order in (1, 2), "mesh.order", cfg.mesh.order, "must be 1 or 2")
+    _need(0.2 <= cfg.mesh.resolution <= 4, "mesh.resolution", cfg.mesh.resolution, "must be in [0.2, 4]")
+
+
+def _check_studies(cfg: ReportConfig) -> None:
+    """[trends], [geometry_trends], [convergence], [calibration]."""
     t = cfg.trends
     valid = ("pedicle_e_pa", "gap_e_pa", "capsule_e_pa", "plate_e_pa", "stapes_e_pa")
     for m in t.moduli:
-        need(m in valid, "trends.moduli", m, f"each must be one of {', '.join(valid)}")
-    need(len(set(t.moduli)) == len(t.moduli), "trends.moduli", list(t.moduli), "must not repeat")
-    need(5 <= t.n_lumped <= 10_000, "trends.n_lumped", t.n_lumped, "must be in [5, 10000]")
-    need(0 <= t.fe_points <= 20, "trends.fe_points", t.fe_points, "must be in [0, 20]")
+        _need(m in valid, "trends.moduli", m, f"each must be one of {', '.join(valid)}")
+    _need(len(set(t.moduli)) == len(t.moduli), "trends.moduli", list(t.moduli), "must not repeat")
+    _need(5 <= t.n_lumped <= 10_000, "trends.n_lumped", t.n_lumped, "must be in [5, 10000]")
+    _need(0 <= t.fe_points <= 20, "trends.fe_points", t.fe_points, "must be in [0, 20]")
     gt = cfg.geometry_trends
-    need(5 <= gt.n_lumped <= 10_000, "geometry_trends.n_lumped", gt.n_lumped, "must be in [5, 10000]")
-    need(
+    _need(5 <= gt.n_lumped <= 10_000, "geometry_trends.n_lumped", gt.n_lumped, "must be in [5, 10000]")
+    _need(
         gt.fe_points in (0, *range(2, 9)), "geometry_trends.fe_points", gt.fe_points, "must be 0 or in [2, 8]"
     )
     for o in cfg.convergence.orders:
-        need(o in (1, 2), "convergence.orders", o, "each must be 1 or 2")
+        _need(o in (1, 2), "convergence.orders", o, "each must be 1 or 2")
     for s in cfg.convergence.directions:
-        need(s in ("x", "y"), "convergence.directions", s, 'each must be "x" or "y"')
+        _need(s in ("x", "y"), "convergence.directions", s, 'each must be "x" or "y"')
     c = cfg.calibration
     if c.file:
-        need(Path(c.file).is_file(), "calibration.file", c.file, "no such file")
-    need(0 <= c.check_samples <= 512, "calibration.check_samples", c.check_samples, "must be in [0, 512]")
-    need(c.seed >= 0, "calibration.seed", c.seed, "must be >= 0")
+        _need(Path(c.file).is_file(), "calibration.file", c.file, "no such file")
+    _need(0 <= c.check_samples <= 512, "calibration.check_samples", c.check_samples, "must be in [0, 512]")
+    _need(c.seed >= 0, "calibration.seed", c.seed, "must be >= 0")
+
+
+def _check_bands(cfg: ReportConfig) -> None:
+    """[sweep] and [transmission]: their bands, the damping over both, the cases."""
     s = cfg.sweep
-    need(s.fmin_hz > 0, "sweep.fmin_hz", s.fmin_hz, "must be > 0 (Hz)")
-    need(s.fmax_hz > s.fmin_hz, "sweep.fmax_hz", s.fmax_hz, f"must be > sweep.fmin_hz = {s.fmin_hz:g} Hz")
+    _need(s.fmin_hz > 0, "sweep.fmin_hz", s.fmin_hz, "must be > 0 (Hz)")
+    _need(s.fmax_hz > s.fmin_hz, "sweep.fmax_hz", s.fmax_hz, f"must be > sweep.fmin_hz = {s.fmin_hz:g} Hz")
     try:  # the isolated model's chain: its band (isj.validate.CHAIN_FMAX_HZ)
         check_band(s.fmin_hz, s.fmax_hz, ("sweep.fmin_hz", "sweep.fmax_hz"), model="chain")
     except InvalidParameter as exc:
         raise ConfigError(str(exc)) from None
-    need(2 <= s.n_freq <= 100_000, "sweep.n_freq", s.n_freq, "must be in [2, 100000]")
-    need(0 <= s.fe_checks <= 20, "sweep.fe_checks", s.fe_checks, "must be in [0, 20]")
+    _need(2 <= s.n_freq <= 100_000, "sweep.n_freq", s.n_freq, "must be in [2, 100000]")
+    _need(0 <= s.fe_checks <= 20, "sweep.fe_checks", s.fe_checks, "must be in [0, 20]")
     # the damping's values were checked by isj.damping.Damping when the section was resolved
-    need(1 <= s.n_modes <= 30, "sweep.n_modes", s.n_modes, "must be in [1, 30]")
+    _need(1 <= s.n_modes <= 30, "sweep.n_modes", s.n_modes, "must be in [1, 30]")
     t = cfg.transmission
-    need(t.fmin_hz > 0, "transmission.fmin_hz", t.fmin_hz, "must be > 0 (Hz)")
-    need(
+    _need(t.fmin_hz > 0, "transmission.fmin_hz", t.fmin_hz, "must be > 0 (Hz)")
+    _need(
         t.fmin_hz < t.fmax_hz <= EAR_FMAX_HZ,
         "transmission.fmax_hz",
         t.fmax_hz,
@@ -453,46 +471,54 @@ def _check(cfg: ReportConfig) -> None:
         check_damping(s.damping_model(), min(s.fmin_hz, t.fmin_hz), max(s.fmax_hz, t.fmax_hz), names)
     except InvalidParameter as exc:
         raise ConfigError(str(exc)) from None
-    need(2 <= t.n_freq <= 2000, "transmission.n_freq", t.n_freq, "must be in [2, 2000]")
-    need(0 <= t.fe_checks <= 5, "transmission.fe_checks", t.fe_checks, "must be in [0, 5]")
+    _need(2 <= t.n_freq <= 2000, "transmission.n_freq", t.n_freq, "must be in [2, 2000]")
+    _need(0 <= t.fe_checks <= 5, "transmission.fe_checks", t.fe_checks, "must be in [0, 5]")
     choices = ("open", "intact", "both")
-    need(t.cavities in choices, "transmission.cavities", t.cavities, 'must be "open", "intact" or "both"')
+    _need(t.cavities in choices, "transmission.cavities", t.cavities, 'must be "open", "intact" or "both"')
     names = [c.name for c in THESIS_CASES]
     for c in t.cases:
-        need(c in names, "transmission.cases", c, f"each must be one of {', '.join(names)}")
-    need(len(set(t.cases)) == len(t.cases), "transmission.cases", list(t.cases), "must not repeat")
+        _need(c in names, "transmission.cases", c, f"each must be one of {', '.join(names)}")
+    _need(len(set(t.cases)) == len(t.cases), "transmission.cases", list(t.cases), "must not repeat")
     for c in t.sliding_cases:
-        need(c in names, "transmission.sliding_cases", c, f"each must be one of {', '.join(names)}")
-    need(
+        _need(c in names, "transmission.sliding_cases", c, f"each must be one of {', '.join(names)}")
+    _need(
         len(set(t.sliding_cases)) == len(t.sliding_cases),
         "transmission.sliding_cases",
         list(t.sliding_cases),
         "must not repeat",
     )
+
+
+def _check_sliding(cfg: ReportConfig) -> None:
+    """[sliding]: the joints and the layer's shear modulus."""
     sl = cfg.sliding
     for j in sl.joints:
-        need(
+        _need(
             j in ("bonded", "sliding", "layer"),
             "sliding.joints",
             j,
             'each must be "bonded", "sliding" or "layer"',
         )
-    need(len(set(sl.joints)) == len(sl.joints), "sliding.joints", list(sl.joints), "must not repeat")
-    need("bonded" in sl.joints, "sliding.joints", list(sl.joints), 'must include "bonded" (the reference)')
+    _need(len(set(sl.joints)) == len(sl.joints), "sliding.joints", list(sl.joints), "must not repeat")
+    _need("bonded" in sl.joints, "sliding.joints", list(sl.joints), 'must include "bonded" (the reference)')
     g = sl.layer_shear_pa
-    need(1.0 <= g <= 1e9, "sliding.layer_shear_pa", g, "must be in [1, 1e9] Pa")
+    _need(1.0 <= g <= 1e9, "sliding.layer_shear_pa", g, "must be in [1, 1e9] Pa")
+
+
+def _check_guard_and_uq(cfg: ReportConfig) -> None:
+    """[guard] and [uq]."""
     gd = cfg.guard
-    need(0 <= gd.dense_samples <= 2**22, "guard.dense_samples", gd.dense_samples, f"must be in [0, {2**22}]")
-    need(0 <= gd.seed <= 2**32 - 1, "guard.seed", gd.seed, f"must be in [0, {2**32 - 1}]")
-    need(0 <= gd.fe_checks <= 20, "guard.fe_checks", gd.fe_checks, "must be in [0, 20]")
-    need(0 < gd.tolerance < 1, "guard.tolerance", gd.tolerance, "must be in (0, 1)")
+    _need(0 <= gd.dense_samples <= 2**22, "guard.dense_samples", gd.dense_samples, f"must be in [0, {2**22}]")
+    _need(0 <= gd.seed <= 2**32 - 1, "guard.seed", gd.seed, f"must be in [0, {2**32 - 1}]")
+    _need(0 <= gd.fe_checks <= 20, "guard.fe_checks", gd.fe_checks, "must be in [0, 20]")
+    _need(0 < gd.tolerance < 1, "guard.tolerance", gd.tolerance, "must be in (0, 1)")
     u = cfg.uq
     for key, (lo, hi) in UQ_RANGES.items():
         v = getattr(u, key)
-        need(lo <= v <= hi, f"uq.{key}", v, f"must be in [{lo}, {hi}]")
+        _need(lo <= v <= hi, f"uq.{key}", v, f"must be in [{lo}, {hi}]")
     n = u.sobol_samples
-    need(n & (n - 1) == 0, "uq.sobol_samples", n, "must be a power of 2 (Sobol' balance), e.g. 16384")
-    need(
+    _need(n & (n - 1) == 0, "uq.sobol_samples", n, "must be a power of 2 (Sobol' balance), e.g. 16384")
+    _need(
         n * u.bootstrap <= 2**24,
         "uq.sobol_samples x uq.bootstrap",
         n * u.bootstrap,
