@@ -336,6 +336,14 @@ def uq(args) -> int:
     if args.json:
         c.print_json(summary)
         return 0
+    _print_summary(config, result, summary)
+    if out is not None:
+        print(f"wrote {out}/ ({', '.join(sorted(UQ_FILES))})")
+    return 0
+
+
+def _print_summary(config, result, summary: dict) -> None:
+    """The text summary: P(β/α > 1), quantiles, the largest Sobol' indices, ΔH_V, the comparison."""
     lo, hi = summary["p_beta_over_alpha_gt_1_ci"]
     t = summary["time_s"]
     print(
@@ -394,6 +402,3 @@ def uq(args) -> int:
         )
     elif cmp is not None:
         print("lumped against the surrogate: no draw inside the surrogate's domain")
-    if out is not None:
-        print(f"wrote {out}/ ({', '.join(sorted(UQ_FILES))})")
-    return 0
