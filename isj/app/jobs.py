@@ -178,6 +178,9 @@ def main(argv: list[str] | None = None) -> int:
     if len(argv) != 2 or argv[0] != "fe":
         print("usage: python -m isj.app.jobs fe JSON", file=sys.stderr)
         return 2
+    # Job.cancel() sends SIGTERM: exit through Python so that the finally blocks of the cache's
+    # atomic writes remove their temporary files (the default action ends the process at once)
+    signal.signal(signal.SIGTERM, lambda *_: sys.exit(128 + signal.SIGTERM))
     try:
         return _fe_main(json.loads(argv[1]))
     except (ValueError, RuntimeError) as exc:  # bad settings, a failed mesh or solve: one line

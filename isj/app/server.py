@@ -34,7 +34,7 @@ from bokeh.palettes import Viridis256
 from bokeh.plotting import figure
 
 from isj.cases import THESIS_CASES
-from isj.errors import IsjError
+from isj.errors import InvalidParameter, IsjError
 
 from . import jobs, state
 
@@ -67,6 +67,11 @@ def cached_rom(refresh: bool = False):
 def _one_line(exc: BaseException) -> str:
     text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
     return text if isinstance(exc, IsjError) else f"{type(exc).__name__}: {text}"
+
+
+def _short(text) -> str:
+    """A typed value for a message: its repr, cut to 40 characters so the message stays one line."""
+    return repr(str(text)[:40])
 
 
 def _urad(x: float) -> str:
@@ -144,7 +149,7 @@ class Session:
         self._stale: set[str] = set()
         self._plots_pending = False
         self.fe_button.on_click(self.on_verify)
-        self.fe_res.on_change("value", lambda a, o, n: self._stale.add("update_export"))
+        self.fe_res.on_change("value", lambda a, o, n: self.guarded(self.on_fe_res, n))
         self.fe_div = Div(text='<span id="fe"></span>', width=640, height=40)
         self.joint = RadioButtonGroup(labels=list(state.JOINTS), active=0)
         self.joint.on_change("active", lambda a, o, n: self.on_joint(n))
@@ -212,7 +217,7 @@ class Session:
         self.map_y = Select(title="map y", value="gap_e_pa", options=list(state.MODULI), width=150)
         self.map_x.css_classes, self.map_y.css_classes = ["isj-map-x"], ["isj-map-y"]
         for w in (self.map_x, self.map_y):
-            w.on_change("value", lambda a, o, n: self.guarded(self._redo, "update_map"))
+            w.on_change("value", lambda a, o, n: self.guarded(self._redo, "update_map", True))
         self.map_src = ColumnDataSource(dict(image=[], x=[], y=[], dw=[], dh=[]))
         self.map_dot = ColumnDataSource(dict(x=[], y=[]))
         self.map_mapper = LinearColorMapper(palette=Viridis256)
@@ -237,7 +242,7 @@ class Session:
         self.uq_factor = TextInput(title="lognormal factor", value="2", width=110)
         self.uq_samples = TextInput(title="samples", value="20000", width=110)
         for w in (*self.uq_kinds.values(), self.uq_factor, self.uq_samples):
-            w.on_change("value", lambda a, o, n: self.guarded(self._redo, "update_uq"))
+            w.on_change("value", lambda a, o, n: self.guarded(self._redo, "update_uq", True))
         self.uq_src = ColumnDataSource(dict(left=[], right=[], top=[]))
         self.uq = figure(width=560, height=300, x_axis_label="log10 beta/alpha", y_axis_label="draws")
         self.uq.quad(left="left", right="right", top="top", bottom=0, source=self.uq_src, fill_alpha=0.6)
@@ -349,8 +354,18 @@ class Session:
         if self._quiet:
             return
         spec = self.specs[name]
-        v = 10**pos if spec.log else (pos * 1e-6 if spec.unit == "m" else pos)
-        self.guarded(self._set, name, float(f"{v:.6g}"), True)
+
+        def go():
+            # the page's sliders stay in their range; a value sent otherwise is checked as if typed
+            try:
+                text = f"{float(10**pos if spec.log else (pos * 1e-6 if spec.unit == 'm' else pos)):.6g}"
+            except OverflowError:
+                text = "inf"
+            except TypeError:  # not a number at all
+                text = str(pos)
+            self._set(name, state.parse_value(name, text), True)
+
+        self.guarded(go)
 
     def on_text(self, name: str, text: str) -> None:
         if self._quiet:
@@ -360,7 +375,13 @@ class Session:
     def _set(self, name: str, v, from_slider: bool, text: str | None = None) -> None:
         if v is None:
             v = state.parse_value(name, text)
-        self.design = self.design.replace(name, v)  # an invalid geometry raises here, the design stays
+        try:
+            self.design = self.design.replace(name, v)  # an invalid geometry raises here, the design stays
+        except InvalidParameter as exc:
+            if name in str(exc):
+                raise
+            # another dimension's limit moved (plate_thickness_m bounds capsule_reach_m): name this one
+            raise InvalidParameter(f"{name} = {v:.6g}: {exc}") from None
         self.say("", error=False)
         if from_slider:
             self._quiet = True
@@ -372,11 +393,22 @@ class Session:
             self._show_value(name)
         self.update_all()
 
-    def on_joint(self, active: int) -> None:
-        self.guarded(self._set_joint, state.JOINTS[active])
+    def on_joint(self, active) -> None:
+        if self._quiet:
+            return
+
+        def go():
+            if not (isinstance(active, int) and 0 <= active < len(state.JOINTS)):
+                raise IsjError(
+                    f"joint = {str(active)[:40]}: must be 0 ({state.JOINTS[0]}) or 1 ({state.JOINTS[1]})"
+                )
+            self._set_joint(state.JOINTS[active])
+
+        self.guarded(go)
 
     def _set_joint(self, joint: str) -> None:
         self.design = self.design.replace("joint", joint)
+        self.say("", error=False)
         self.update_all()
 
     def on_reset(self) -> None:
@@ -393,6 +425,12 @@ class Session:
         self.guarded(go)
 
     def on_format(self, fmt: str) -> None:
+        self.guarded(self._set_format, fmt)
+
+    def _set_format(self, fmt: str) -> None:
+        if fmt not in ("png", "svg"):
+            raise IsjError(f"plots save as = {_short(fmt)}: must be png or svg")
+        self.say("", error=False)
         for p in (self.bode, self.bode_phase, self.ear, self.ear_delta, self.map, self.uq):
             p.output_backend = "svg" if fmt == "svg" else "canvas"
 
@@ -422,9 +460,11 @@ class Session:
         self.updates += 1  # written last: the page has every output of this change once it shows
         self.stamp.text = f"<span id='stamp'>update {self.updates}</span>"
 
-    def _redo(self, name: str) -> None:
+    def _redo(self, name: str, clear: bool = False) -> None:
         getattr(self, name)()
         self._stale.discard(name)
+        if clear:  # the control that changed is valid now: its earlier message goes
+            self.say("", error=False)
 
     def update_numbers(self) -> None:
         d = self.design
@@ -525,12 +565,14 @@ class Session:
             samples = int(self.uq_samples.value)
         except ValueError:
             raise IsjError(
-                f"samples = {self.uq_samples.value!r}: not an integer in [1000, {state.MAX_UQ_SAMPLES}]"
+                f"samples = {_short(self.uq_samples.value)}: not an integer in [1000, {state.MAX_UQ_SAMPLES}]"
             ) from None
         try:
             factor = float(self.uq_factor.value)
         except ValueError:
-            raise IsjError(f"lognormal factor = {self.uq_factor.value!r}: not a number > 1") from None
+            raise IsjError(
+                f"lognormal factor = {_short(self.uq_factor.value)}: not a number in (1, {math.exp(3):.4g}]"
+            ) from None
         kinds = {k: w.value for k, w in self.uq_kinds.items()}
         if all(v == "fixed" for v in kinds.values()):
             self.uq_src.data = dict(left=[], right=[], top=[])
@@ -546,10 +588,9 @@ class Session:
         )
 
     def update_export(self) -> None:
-        res = self.fe_res.value
         try:
-            r = float(res)
-        except ValueError:
+            r = self.fe_resolution()
+        except IsjError:  # shown when typed; the case file keeps the calibration's
             r = _calibration_mesh()[1]
         text = state.case_toml(self.design, r)
         self.case_src.data = dict(text=[text])
@@ -564,19 +605,28 @@ class Session:
 
     # ---- background jobs ----------------------------------------------------------------------
 
+    def fe_resolution(self) -> float:
+        """The FE mesh resolution typed in; one line (:class:`IsjError`) outside ``jobs.RESOLUTION_RANGE``."""
+        lo, hi = jobs.RESOLUTION_RANGE
+        text = self.fe_res.value
+        try:
+            res = float(str(text).strip())
+        except ValueError:
+            raise IsjError(f"FE mesh resolution = {_short(text)}: not a number in [{lo:g}, {hi:g}]") from None
+        if not (math.isfinite(res) and lo <= res <= hi):
+            raise IsjError(f"FE mesh resolution = {str(text)[:40]}: must be in [{lo:g}, {hi:g}]")
+        return res
+
+    def on_fe_res(self, text: str) -> None:
+        self._stale.add("update_export")
+        self.fe_resolution()  # a bad value is one line now, not only when Verify is pressed
+        self.say("", error=False)
+
     def on_verify(self) -> None:
         def go():
             if self.job is not None and not self.job.done:
                 raise IsjError("a background job is running; wait for it to finish")
-            try:
-                res = float(self.fe_res.value)
-            except ValueError:
-                raise IsjError(
-                    f"FE mesh resolution = {self.fe_res.value!r}: not a number in [0.1, 8]"
-                ) from None
-            lo, hi = jobs.RESOLUTION_RANGE
-            if not (math.isfinite(res) and lo <= res <= hi):
-                raise IsjError(f"FE mesh resolution = {res:g}: must be in [{lo:g}, {hi:g}]")
+            res = self.fe_resolution()
             d = self.design
             order = _calibration_mesh()[0]
             payload = dict(

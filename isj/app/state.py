@@ -359,7 +359,10 @@ def uncertainty(design: Design, kinds: Mapping[str, str], factor: float, samples
     from isj.studies.uq_inputs import Distribution, UQConfig
 
     if not (isinstance(samples, int) and 1000 <= samples <= MAX_UQ_SAMPLES):
-        raise InvalidParameter(f"samples = {samples!r}: must be an integer in [1000, {MAX_UQ_SAMPLES}]")
+        # cut to 40 characters: a typed 400-digit number stays a one-line message
+        raise InvalidParameter(
+            f"samples = {str(samples)[:40]}: must be an integer in [1000, {MAX_UQ_SAMPLES}]"
+        )
     if not (isinstance(factor, int | float) and math.isfinite(factor) and 1 < factor <= math.exp(3)):
         raise InvalidParameter(f"factor = {factor!r}: must be a number in (1, {math.exp(3):.4g}]")
     dom = calibrated_domain()
