@@ -316,3 +316,48 @@ def band_deviation(freq_hz, response, reference, bands=OCTAVE_BANDS_HZ) -> list[
             }
         out.append(row)
     return out
+
+
+#: Columns :func:`delta_columns` adds to a sweep, and their units.
+DELTA_COLUMNS = {"h_v_db": "dB re 1 m/s/Pa", "h_v_deg": "deg", "delta_h_v_db": "dB", "delta_h_v_deg": "deg"}
+
+#: Frequencies (Hz) a sweep's summary quotes ΔH_V at (those inside the band).
+QUOTE_HZ = (1000.0, 5000.0, 10000.0)
+
+
+def delta_columns(freq_hz, h_v, h_v_rigid) -> dict:
+    """H_V and ΔH_V = H_V / H_V,rigid in dB and degrees (:data:`DELTA_COLUMNS`), and a summary.
+
+    For any ear's H_V (m/s per Pa) and that of the rigid connection of the same ear at the same
+    frequencies (``isj ear sweep``, lumped or ``--fe``, and the fast ear). Returns ``columns``
+    (name → (n_f,) float), ``units`` and ``summary``: ΔH_V (dB, degrees) at the :data:`QUOTE_HZ`
+    inside the band (interpolated in log f) and the largest |ΔH_V| (dB) at or below 10 kHz with
+    its frequency.
+    """
+    f = check_frequencies(freq_hz)
+    hv, hr = np.asarray(h_v, complex), np.asarray(h_v_rigid, complex)
+    if hv.shape != f.shape or hr.shape != f.shape:
+        raise InvalidParameter(f"h_v, h_v_rigid: must have the shape of freq_hz {f.shape}")
+    d = hv / hr
+    cols = {
+        "h_v_db": 20 * np.log10(np.abs(hv)),
+        "h_v_deg": np.degrees(np.angle(hv)),
+        "delta_h_v_db": 20 * np.log10(np.abs(d)),
+        "delta_h_v_deg": np.degrees(np.angle(d)),
+    }
+    summary: dict = {"delta_h_v_at_hz": {}}
+    lf = np.log(np.maximum(f, 1e-300))
+    for q in QUOTE_HZ:
+        if f.size > 1 and f[0] <= q <= f[-1]:
+            summary["delta_h_v_at_hz"][f"{q:g}"] = {
+                "db": float(np.interp(np.log(q), lf, cols["delta_h_v_db"])),
+                "deg": float(
+                    np.interp(np.log(q), lf, np.unwrap(np.radians(cols["delta_h_v_deg"])) * 180 / np.pi)
+                ),
+            }
+    low = np.flatnonzero(f <= 10e3)
+    if low.size:
+        i = low[np.argmax(np.abs(cols["delta_h_v_db"][low]))]
+        summary["max_abs_delta_h_v_db_to_10khz"] = float(abs(cols["delta_h_v_db"][i]))
+        summary["max_abs_delta_h_v_at_hz"] = float(f[i])
+    return {"columns": cols, "units": dict(DELTA_COLUMNS), "summary": summary}

@@ -519,7 +519,7 @@ def test_transmission_cli_json_csv_and_switch(fake_fast_ear, capsys, tmp_path):
 @pytest.mark.slow
 def test_transmission_fixed_design_equals_the_fast_ear(coarse_model):
     """Every draw of one design gives the fast ear's single-design ΔH_V (isj ear sweep's summary,
-    :func:`isj.fem.ear.fast_ear.delta_columns`) at 1, 5, 10 kHz and its largest |ΔH_V| to 10 kHz;
+    :func:`isj.responses.delta_columns`) at 1, 5, 10 kHz and its largest |ΔH_V| to 10 kHz;
     and a Monte Carlo draw's outputs equal that design's own single-design values."""
     from isj.fem.ear.fast_ear import build_fast_ear, fast_ear_sweep
     from isj.fem.ear.middle_ear import MiddleEarModel

@@ -58,6 +58,7 @@ from isj.design import REGIONS, Materials
 from isj.design_space import RANGED, DesignSpace
 from isj.ear import EarMasses, EarMaterials
 from isj.errors import CacheWarning, InvalidParameter
+from isj.responses import delta_columns
 from isj.validate import check_frequencies
 
 from .constraints import rigid_body_modes
@@ -71,8 +72,9 @@ from .joint_condensation import (
 )
 from .reduced_ear import output_rows, shell_basis
 
-#: Bump when the stored arrays change meaning.
-FAST_EAR_FORMAT_VERSION = 1
+#: Bump when the stored arrays change meaning or value (it is part of the cache key): 2, eight
+#: snapshot designs (were 13) and the snapshots' solves batched.
+FAST_EAR_FORMAT_VERSION = 2
 
 #: Relative singular value below which the joint snapshots' POD drops a direction: on the coarse
 #: test ear about 80 directions, ΔH_V within 1.3e-3 dB and 0.03° of the FE ear to 10 kHz
@@ -103,21 +105,21 @@ def fast_ear_cache_dir() -> Path:
 
 
 def snapshot_designs(space: DesignSpace | None = None, reference: Materials | None = None) -> np.ndarray:
-    """(13, 5) ranged moduli (Pa, :data:`isj.design_space.RANGED` order) the joint basis is built from.
+    """(8, 5) ranged moduli (Pa, :data:`isj.design_space.RANGED` order) the joint basis is built from.
 
-    The reference design first (its static condensation is Ψ₀), then the centres of the box's ten
-    faces in log coordinates (each modulus at its low and high end, the others at the log-centre),
-    then the two corners with every modulus low and every modulus high.
+    The reference design first (its static condensation is Ψ₀), then the centres of the box's five
+    low faces in log coordinates (each modulus at its low end, the others at the log-centre), then
+    the two corners with every modulus low and every modulus high; the high faces add little
+    that the corners miss (docs/fast_ear.md §14.2 measures the choice).
     """
     space = space or DesignSpace()
     ref = reference or Materials()
     d = len(RANGED)
     t = [np.full(d, 0.5)]
     for j in range(d):
-        for end in (0.0, 1.0):
-            x = np.full(d, 0.5)
-            x[j] = end
-            t.append(x)
+        x = np.full(d, 0.5)
+        x[j] = 0.0
+        t.append(x)
     t += [np.zeros(d), np.ones(d)]
     out = space.from_unit(np.array(t))
     out[0] = [ref.youngs(k[: -len("_e_pa")]) for k in RANGED]
@@ -137,6 +139,65 @@ def region_moduli(designs, space: DesignSpace, regions) -> np.ndarray:
     return theta[:, [REGIONS.index(r) for r in regions]]
 
 
+def _joint_operators(parts, model) -> dict:
+    """The joint interior's blocks: per region KJJ (sparse) and KJB (dense, to the 12 body dofs),
+    the mass's MJJ and MJB, and the weights √|diag MJJ| of the POD's inner product."""
+    fq = model.free
+    inJ = (fq >= model.off_joint) & (fq < model.off_body)
+    J = np.flatnonzero(inJ)
+    if J.size == 0:
+        raise InvalidParameter("model: its joint model has no interior dofs to condense")
+    B = np.searchsorted(fq, np.concatenate([model.body_dofs, model.stapes_dofs]))
+    regions = tuple(model.joint.regions)
+    KJ = {r: sp.csr_matrix(parts.stiffness[r])[J] for r in regions}
+    MJ = sp.csr_matrix(parts.total_mass())[J]
+    MJJ = MJ[:, J].tocsr()
+    return {
+        "n": J.size,
+        "regions": regions,
+        "KJJ": {r: KJ[r][:, J].tocsr() for r in regions},
+        "KJB": {r: KJ[r][:, B].toarray() for r in regions},
+        "MJJ": MJJ,
+        "MJB": MJ[:, B].toarray(),
+        "w": np.sqrt(np.abs(MJJ.diagonal())),
+    }
+
+
+def _snapshots(ops: dict, solver, scale: np.ndarray, reference: bool) -> tuple[np.ndarray, np.ndarray]:
+    """(Ψ, X): the static condensation (n_J, 12) at one design (each region's stiffness times
+    ``scale``) and its snapshot vectors (module docstring, step 1), from ``solver`` (analysed for
+    the joint's pattern) factored for that design."""
+    regions, KJJ, KJB, MJJ = ops["regions"], ops["KJJ"], ops["KJB"], ops["MJJ"]
+    n = ops["n"]
+    K = sum(s * KJJ[r] for s, r in zip(scale, regions, strict=True)).tocsr()
+    solver.factor(K)
+
+    def solve(rhs):
+        return np.asarray(solver.solve(rhs)).reshape(n, -1)
+
+    psi = -solve(sum(s * KJB[r] for s, r in zip(scale, regions, strict=True)))
+    # one solve for the loss factors' changes (six columns a region: the stapes's motions, as
+    # rigid motions of both bodies strain nothing) and the inertia of the twelve static shapes
+    rhs = [s * (KJJ[r] @ psi[:, 6:] + KJB[r][:, 6:]) for s, r in zip(scale, regions, strict=True)]
+    X = solve(np.hstack([*rhs, MJJ @ psi + ops["MJB"]]))
+    n_dam = 6 * len(regions)
+    if reference:  # Ψ₀ itself is the static part: the interior vectors of condense_joint
+        return psi, np.hstack([X, solve(MJJ @ X[:, :n_dam])])  # and the loss vectors' inertia
+    return psi, np.hstack([psi[:, 6:], X])  # elsewhere the static shapes differ from Ψ₀'s
+
+
+def _pod(blocks, pod_tol: float) -> tuple[np.ndarray, np.ndarray, int]:
+    """(U, singular values, rank) of the snapshots' coefficient blocks on their orthonormal basis."""
+    C = np.zeros((blocks[-1].shape[0], sum(c.shape[1] for c in blocks)))
+    j = 0
+    for c in blocks:
+        C[: c.shape[0], j : j + c.shape[1]] = c
+        j += c.shape[1]
+    U, sv, _ = np.linalg.svd(C, full_matrices=False)
+    rank = int(np.sum(sv > pod_tol * sv[0])) if pod_tol > 0 else C.shape[0]
+    return U, sv, rank
+
+
 def joint_basis(
     parts,
     model,
@@ -150,72 +211,37 @@ def joint_basis(
     """(Ψ₀, Φ, info): the reference design's static condensation (n_J, 12) and the POD basis
     (n_J, m) of the joint snapshots at ``designs_pa`` (module docstring, step 1).
 
-    ``pod_tol`` = 0 keeps every independent snapshot direction (no truncation).
+    ``pod_tol`` = 0 keeps every independent snapshot direction (no truncation). One symbolic
+    analysis serves every design (the pattern is the same); each design is one factorization
+    and three solves.
     """
     from isj.fem.solvers import make_solver
 
     t0 = time.perf_counter()
-    fq = model.free
-    inJ = (fq >= model.off_joint) & (fq < model.off_body)
-    J = np.flatnonzero(inJ)
-    B = np.searchsorted(fq, np.concatenate([model.body_dofs, model.stapes_dofs]))
-    regions = tuple(model.joint.regions)
-    KJ = {r: sp.csr_matrix(parts.stiffness[r])[J] for r in regions}
-    KJJ = {r: KJ[r][:, J].tocsr() for r in regions}
-    KJB = {r: KJ[r][:, B].toarray() for r in regions}
-    MJ = sp.csr_matrix(parts.total_mass())[J]
-    MJJ, MJB = MJ[:, J].tocsr(), MJ[:, B].toarray()
-    w = np.sqrt(np.abs(MJJ.diagonal()))
+    ops = _joint_operators(parts, model)
+    regions, w = ops["regions"], ops["w"]
     E0 = np.array([reference.youngs(r) for r in regions])
     theta = region_moduli(designs_pa, space, regions)
-    Q = np.zeros((J.size, 0))
+    Q = np.zeros((ops["n"], 0))
     blocks, psi0 = [], None
-    if J.size == 0:
-        raise InvalidParameter("model: its joint model has no interior dofs to condense")
-    for k, e in enumerate(theta):
-        s = e / E0
-        K = sum(si * KJJ[r] for si, r in zip(s, regions, strict=True)).tocsr()
-        slv = make_solver(K, solver)
-        try:
-            slv.factor(K)
-
-            def solve(rhs, slv=slv):
-                return np.asarray(slv.solve(rhs)).reshape(J.size, -1)
-
-            psi = -solve(sum(si * KJB[r] for si, r in zip(s, regions, strict=True)))
-            dam = [
-                solve(si * (KJJ[r] @ psi[:, 6:] + KJB[r][:, 6:])) for si, r in zip(s, regions, strict=True)
-            ]
-            X = [*dam, solve(MJJ @ psi + MJB)]
-            if k == 0:  # Ψ₀ itself is the static part: the interior vectors of condense_joint
-                psi0 = psi
-                X.append(solve(MJJ @ np.hstack(dam)))  # the inertia of the loss-factor vectors
-            else:  # elsewhere the static shapes differ from Ψ₀'s
-                X.insert(0, psi[:, 6:])
-        finally:
-            if hasattr(slv, "free"):
-                slv.free()
-        X = np.hstack(X)
-        X = X / np.linalg.norm(X * w[:, None], axis=0)  # each snapshot of unit weighted norm
-        Q = np.hstack([Q, orthonormalize(X, w, tol, against=Q)])
-        # coefficients on Q (orthonormal in the weighted product); on Q's later vectors they are
-        # below ``tol`` (those were orthogonalised against this block): taken as zero
-        blocks.append((Q * w[:, None] ** 2).T @ X)
-    # POD: the SVD of the snapshots' coefficients
-    C = np.zeros((Q.shape[1], sum(c.shape[1] for c in blocks)))
-    j = 0
-    for c in blocks:
-        C[: c.shape[0], j : j + c.shape[1]] = c
-        j += c.shape[1]
-    U, sv, _ = np.linalg.svd(C, full_matrices=False)
-    if pod_tol > 0:
-        rank = int(np.sum(sv > pod_tol * sv[0]))
-        phi = Q @ U[:, :rank]
-    else:  # no truncation: every independent snapshot direction
-        rank, phi = Q.shape[1], Q
+    slv = make_solver(sum(ops["KJJ"].values()).tocsr(), solver)
+    try:
+        for k, e in enumerate(theta):
+            psi, X = _snapshots(ops, slv, e / E0, reference=k == 0)
+            psi0 = psi if k == 0 else psi0
+            X = X / np.linalg.norm(X * w[:, None], axis=0)  # each snapshot of unit weighted norm
+            Q = np.hstack([Q, orthonormalize(X, w, tol, against=Q)])
+            # coefficients on Q (orthonormal in the weighted product); on Q's later vectors they
+            # are below ``tol`` (those were orthogonalised against this block): taken as zero
+            blocks.append((Q * w[:, None] ** 2).T @ X)
+    finally:
+        if hasattr(slv, "free"):
+            slv.free()
+    U, sv, rank = _pod(blocks, pod_tol)
+    phi = Q @ U[:, :rank] if pod_tol > 0 else Q  # no truncation: every independent direction
     info = {
         "n_snapshot_designs": int(theta.shape[0]),
-        "n_snapshot_vectors": int(C.shape[1]),
+        "n_snapshot_vectors": int(sum(c.shape[1] for c in blocks)),
         "n_independent": int(Q.shape[1]),
         "n_joint_basis": rank,
         "pod_tol": float(pod_tol),
@@ -597,6 +623,22 @@ class FastEar:
             z = np.einsum("fmj,fj->fm", Wf, xb)
         return rest["o0"] + np.einsum("fkj,fj->fk", rest["ob"], xb) + z @ Cz.T
 
+    def covers(self, materials: Materials) -> bool:
+        """Whether this fast ear answers for ``materials``: its ranged moduli inside :attr:`space`
+        and everything else (ν, the incus's modulus, the densities) the reference design's."""
+        reference = self.space.materials(self.arrays["snapshot_designs_pa"][0])
+        ranged = {k: getattr(materials, k) for k in RANGED}
+        if materials != reference.replace(**ranged):
+            return False
+        return bool(self.space.contains([ranged])[0])
+
+    def drum_volume_m3(self, freq_hz, materials: Materials | None = None, damping=None) -> np.ndarray:
+        """The drum's net volume displacement per Pa of ear-canal pressure (m³/Pa, complex, open
+        cavities), as :meth:`fem.ear.reduced_ear.ReducedEar.drum_volume_m3`."""
+        freqs = check_frequencies(freq_hz)
+        theta = region_moduli(materials or Materials(), self.space, self.regions)
+        return self._outputs(freqs, theta, damping, "condensed", 2)[:, 11]
+
     def static(self, materials: Materials | None = None) -> dict:
         """Undamped static response per Pa of one design (exact for a snapshot design, module
         docstring): ``umbo_vector`` (3,), ``footplate`` (3,), ``fit`` (3,), ``alpha``, ``beta``."""
@@ -858,50 +900,6 @@ def fast_ear(
     return out
 
 
-#: Columns :func:`delta_columns` adds to a sweep, and their units.
-DELTA_COLUMNS = {"h_v_db": "dB re 1 m/s/Pa", "h_v_deg": "deg", "delta_h_v_db": "dB", "delta_h_v_deg": "deg"}
-
-#: Frequencies (Hz) a sweep's summary quotes ΔH_V at (those inside the band).
-QUOTE_HZ = (1000.0, 5000.0, 10000.0)
-
-
-def delta_columns(freq_hz, h_v, h_v_rigid) -> dict:
-    """H_V and ΔH_V = H_V / H_V,rigid in dB and degrees (:data:`DELTA_COLUMNS`), and a summary.
-
-    For any ear's H_V (m/s per Pa) and that of the rigid connection of the same ear at the same
-    frequencies (``isj ear sweep`` fast or ``--fe``). Returns ``columns`` (name → (n_f,) float),
-    ``units`` and ``summary``: ΔH_V (dB, degrees) at the :data:`QUOTE_HZ` inside the band
-    (interpolated in log f) and the largest |ΔH_V| (dB) at or below 10 kHz with its frequency.
-    """
-    f = check_frequencies(freq_hz)
-    hv, hr = np.asarray(h_v, complex), np.asarray(h_v_rigid, complex)
-    if hv.shape != f.shape or hr.shape != f.shape:
-        raise InvalidParameter(f"h_v, h_v_rigid: must have the shape of freq_hz {f.shape}")
-    d = hv / hr
-    cols = {
-        "h_v_db": 20 * np.log10(np.abs(hv)),
-        "h_v_deg": np.degrees(np.angle(hv)),
-        "delta_h_v_db": 20 * np.log10(np.abs(d)),
-        "delta_h_v_deg": np.degrees(np.angle(d)),
-    }
-    summary: dict = {"delta_h_v_at_hz": {}}
-    lf = np.log(np.maximum(f, 1e-300))
-    for q in QUOTE_HZ:
-        if f.size > 1 and f[0] <= q <= f[-1]:
-            summary["delta_h_v_at_hz"][f"{q:g}"] = {
-                "db": float(np.interp(np.log(q), lf, cols["delta_h_v_db"])),
-                "deg": float(
-                    np.interp(np.log(q), lf, np.unwrap(np.radians(cols["delta_h_v_deg"])) * 180 / np.pi)
-                ),
-            }
-    low = np.flatnonzero(f <= 10e3)
-    if low.size:
-        i = low[np.argmax(np.abs(cols["delta_h_v_db"][low]))]
-        summary["max_abs_delta_h_v_db_to_10khz"] = float(abs(cols["delta_h_v_db"][i]))
-        summary["max_abs_delta_h_v_at_hz"] = float(f[i])
-    return {"columns": cols, "units": dict(DELTA_COLUMNS), "summary": summary}
-
-
 def fast_ear_sweep(
     freq_hz,
     materials: Materials | None = None,
@@ -945,8 +943,6 @@ def fast_ear_sweep(
 
 
 __all__ = [
-    "DELTA_COLUMNS",
-    "delta_columns",
     "fast_ear_sweep",
     "FastEar",
     "build_fast_ear",

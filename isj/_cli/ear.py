@@ -203,7 +203,7 @@ def sweep(args) -> int:
     sw, summary, errors, fe_vals = run.sweep, run.summary, run.static_errors, run.fe_static
     c.check_finite(summary, c.design_inputs(args))
     with replace_dir(out) as staging:  # the four files appear together or not at all
-        _write(args, staging, sw, run.check, run.fe_checks)
+        _write(args, staging, sw, run.check, run.fe_checks, run.delta)
         write_run_record(staging / "ear_sweep.json", args, summary)
     if args.json:
         c.print_json(summary)
@@ -231,8 +231,9 @@ def sweep(args) -> int:
     return 0
 
 
-def _write(args, out, sw, check, fe_checks) -> None:
-    """ear_sweep.csv, ear_sweep.npz and ear_bode.png (ear_sweep.json comes last, with the summary)."""
+def _write(args, out, sw, check, fe_checks, delta) -> None:
+    """ear_sweep.csv, ear_sweep.npz and ear_bode.png (ear_sweep.json comes last, with the summary);
+    ``delta``: :func:`isj.responses.delta_columns` of the lumped ear, plain columns at the end."""
     import numpy as np
     from matplotlib.figure import Figure
 
@@ -243,11 +244,15 @@ def _write(args, out, sw, check, fe_checks) -> None:
     from ._output import write_npz, write_response_csv
 
     joint_label = "rigid joint" if args.rigid_joint else "calibrated joint"
+    delta_text = "; ".join(f"{k} {u}" for k, u in delta["units"].items())
     units = (
         "freq_hz Hz; umbo_m, stapes_m m per Pa of ear-canal pressure; "
-        f"alpha_rad, beta_rad rad per Pa; phase deg; {joint_label}"
+        f"alpha_rad, beta_rad rad per Pa; phase deg; {delta_text} (ΔH_V against the rigid "
+        f"connection of the same lumped ear); {joint_label}"
     )
-    write_response_csv(out / "ear_sweep.csv", sw.freq_hz, sw.response, sw.outputs, units)
+    write_response_csv(
+        out / "ear_sweep.csv", sw.freq_hz, sw.response, sw.outputs, units, extra=delta["columns"]
+    )
     write_npz(
         out / "ear_sweep.npz",
         freq_hz=sw.freq_hz,
@@ -257,6 +262,7 @@ def _write(args, out, sw, check, fe_checks) -> None:
         units=np.array([UNITS[k] for k in sw.outputs]),
         natural_freq_hz=sw.natural_freq_hz,
         damping_ratio=sw.damping_ratio,
+        **delta["columns"],
     )
     # a Figure of its own: no pyplot state, no backend chosen for the caller
     fig = Figure(figsize=(7, 6))
@@ -277,8 +283,8 @@ def _fe_sweep(args) -> int:
     import numpy as np
 
     from isj.fem.ear import reduced_ear as es
-    from isj.fem.ear.fast_ear import delta_columns
     from isj.fem.ear.middle_ear import MiddleEarModel
+    from isj.responses import delta_columns
 
     from ..atomic import replace_dir
     from ..provenance import write_run_record
@@ -368,7 +374,7 @@ def _fe_sweep(args) -> int:
 def _write_fe(args, out, freqs, H, names, units, chk, delta) -> None:
     """ear_sweep.csv, ear_sweep.npz and ear_bode.png of ``--fe`` (ear_sweep.json comes last).
 
-    ``delta``: :func:`isj.fem.ear.fast_ear.delta_columns`, H_V and ΔH_V in dB and degrees, as
+    ``delta``: :func:`isj.responses.delta_columns`, H_V and ΔH_V in dB and degrees, as
     plain columns after the complex ones."""
     import numpy as np
     from matplotlib.figure import Figure
