@@ -90,11 +90,11 @@ STEP_VERSIONS = {
     "calibration": 1,
     "sweep": 1,
     "ear": 1,
-    "transmission": 1,
+    "transmission": 2,
     "load_path": 1,
     "sliding": 1,
     "guard": 1,
-    "uq": 1,
+    "uq": 2,
     "geometry_trends": 1,
 }
 
@@ -112,7 +112,7 @@ STEP_FAMILIES = {
     "load_path": ("lumped", "drum_modes"),
     "sliding": ("fe_static", "fe_dynamic", "lumped"),
     "guard": ("fe_static", "fe_dynamic", "surrogate", "ear", "lumped"),
-    "uq": ("lumped", "drum_modes"),
+    "uq": ("lumped", "drum_modes", "fe_static", "fe_dynamic", "ear"),
     "geometry_trends": ("fe_static", "fe_dynamic", "lumped"),
 }
 

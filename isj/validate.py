@@ -56,6 +56,11 @@ def check_frequencies(freq_hz, name: str = "freq_hz") -> np.ndarray:
 #: fine by 2.75 dB at 10–20 kHz (docs/ear.md §5.14). The report's transmission stops here too
 #: (docs/transmission.md §12.7).
 EAR_FMAX_HZ = 24e3
+
+#: Ranges [lo, hi] of the counts of ΔH_V's uncertainty through the fast ear (docs/uq.md §11.10):
+#: Monte Carlo draws, and Saltelli base samples (also a power of 2); ``isj uq`` and the report.
+TRANSMISSION_SAMPLES_RANGE = (100, 1_000_000)
+TRANSMISSION_SOBOL_SAMPLES_RANGE = (2**6, 2**14)
 #: Highest frequency of the isolated joint model's lumped chain (Hz). Its first two in-plane
 #: natural frequencies were compared with FE (19.9 and 120 kHz on the base design, the second
 #: within 0.6 %, docs/dynamics.md §4.9); nothing of it above the second. 100 kHz lies below

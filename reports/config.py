@@ -37,6 +37,8 @@ from isj.errors import (
 )
 from isj.validate import (
     EAR_FMAX_HZ,
+    TRANSMISSION_SAMPLES_RANGE,
+    TRANSMISSION_SOBOL_SAMPLES_RANGE,
     check_band,
     check_damping,
     check_modulus,
@@ -200,18 +202,21 @@ class SweepConfig:
 
 @dataclass(frozen=True)
 class TransmissionConfig:
-    """The FE whole ear over a band, per thesis case and rigid (docs/transmission.md).
+    """The whole ear over a band, per thesis case and rigid (docs/transmission.md).
 
-    Each case in ``cases`` gets its own reduced FE ear (:func:`isj.fem.ear.reduced_ear.reduced_ear`,
-    about 35 s on 2 cores at the default mesh) beside the rigid incus–stapes connection;
-    ``fe_checks`` direct harmonic solves of the first case, the highest at ``fmax_hz``, check
-    the reduction. ``sliding_cases`` are computed again with the sliding joint (docs/model.md
-    §2.12), as ``<case>_sliding``. The damping is the ``[sweep]`` section's. ``cavities``: the
-    middle-ear cavity states computed beside the open ear and compared with the published cat
-    circuit, "open", "intact" or "both" (docs/circuit.md §13.3: the ear's own default state is
-    open, :data:`isj.cavities.DEFAULT_CAVITIES`, and every other number of the step is the open
-    ear's; the report shows both states by default, §13.4). The intact state is a post-processing
-    of the same reduced ears, no new reduction.
+    Each case in ``cases`` comes from the fast ear (:mod:`isj.fem.ear.fast_ear`, built once per mesh and
+    ear and cached) where it covers the case's materials, else from its own reduced FE ear
+    (:func:`isj.fem.ear.reduced_ear.reduced_ear`), beside the rigid incus–stapes connection (an FE
+    reduction). The first case is also reduced with FE to check the fast ear, and ``fe_checks`` direct
+    harmonic solves, the highest at ``fmax_hz``, check that reduction. ``cases_from``: "fast" (as above)
+    or "fe" (every case its own FE reduction, no fast ear: for one or two cases, where building the fast
+    ear costs more than it saves). ``sliding_cases`` are computed again with the sliding joint
+    (docs/model.md §2.12), as ``<case>_sliding``. The damping is the ``[sweep]`` section's. ``cavities``:
+    the middle-ear cavity states computed beside the open ear and compared with the published cat circuit,
+    "open", "intact" or "both" (docs/circuit.md §13.3: the ear's own default state is open,
+    :data:`isj.cavities.DEFAULT_CAVITIES`, and every other number of the step is the open ear's; the
+    report shows both states by default, §13.4). The intact state is a post-processing of the same reduced
+    ears, no new reduction.
     """
 
     fmin_hz: float = 100.0
@@ -221,6 +226,7 @@ class TransmissionConfig:
     fe_checks: int = 2
     sliding_cases: tuple[str, ...] = ("base",)
     cavities: str = "both"
+    cases_from: str = "fast"
 
 
 @dataclass(frozen=True)
@@ -267,13 +273,18 @@ class UQReportConfig:
     """The moduli's uncertainty on the lumped model (docs/uq.md §11.7): counts and seed.
 
     The distributions are ``isj uq``'s defaults: log-uniform over the calibration's domain,
-    the incus fixed (docs/uq.md §11.2); ``isj uq --config`` takes others.
+    the incus fixed (docs/uq.md §11.2); ``isj uq --config`` takes others. ``transmission_samples``
+    draws (the first of the α/β draws; 0: none) and ``transmission_sobol_samples`` Saltelli base
+    samples carry the same distributions to ΔH_V through the fast ear of the transmission step
+    (docs/uq.md §11.10), on the report's mesh, ear and damping.
     """
 
     samples: int = 1_000_000
     sobol_samples: int = 2**14
     bootstrap: int = 100
     seed: int = 0
+    transmission_samples: int = 4096
+    transmission_sobol_samples: int = 2**8
 
 
 @dataclass(frozen=True)
@@ -475,6 +486,7 @@ def _check_bands(cfg: ReportConfig) -> None:
     _need(0 <= t.fe_checks <= 5, "transmission.fe_checks", t.fe_checks, "must be in [0, 5]")
     choices = ("open", "intact", "both")
     _need(t.cavities in choices, "transmission.cavities", t.cavities, 'must be "open", "intact" or "both"')
+    _need(t.cases_from in ("fast", "fe"), "transmission.cases_from", t.cases_from, 'must be "fast" or "fe"')
     names = [c.name for c in THESIS_CASES]
     for c in t.cases:
         _need(c in names, "transmission.cases", c, f"each must be one of {', '.join(names)}")
@@ -518,6 +530,23 @@ def _check_guard_and_uq(cfg: ReportConfig) -> None:
         _need(lo <= v <= hi, f"uq.{key}", v, f"must be in [{lo}, {hi}]")
     n = u.sobol_samples
     _need(n & (n - 1) == 0, "uq.sobol_samples", n, "must be a power of 2 (Sobol' balance), e.g. 16384")
+    lo, hi = TRANSMISSION_SAMPLES_RANGE
+    n_t = u.transmission_samples
+    _need(n_t == 0 or lo <= n_t <= hi, "uq.transmission_samples", n_t, f"must be 0 (none) or in [{lo}, {hi}]")
+    lo, hi = TRANSMISSION_SOBOL_SAMPLES_RANGE
+    n_t = u.transmission_sobol_samples
+    _need(
+        lo <= n_t <= hi and n_t & (n_t - 1) == 0,
+        "uq.transmission_sobol_samples",
+        n_t,
+        f"must be a power of 2 in [{lo}, {hi}]",
+    )
+    _need(
+        n_t * u.bootstrap <= 2**24,
+        "uq.transmission_sobol_samples x uq.bootstrap",
+        n_t * u.bootstrap,
+        "must be <= 16777216 (memory of SALib's bootstrap)",
+    )
     _need(
         n * u.bootstrap <= 2**24,
         "uq.sobol_samples x uq.bootstrap",

@@ -146,6 +146,10 @@ def tables(step: str, res: dict, arr: dict) -> dict[str, str]:
         return _ear(res)
     if step == "transmission":
         return _transmission(res, arr)
+    if step == "uq" and res.get("transmission"):
+        from isj.studies.uq import transmission_csv
+
+        return {"uq_transmission.csv": transmission_csv(res["transmission"])}
     if step == "sliding":
         keys = [
             "alpha_rad",

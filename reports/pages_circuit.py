@@ -108,6 +108,15 @@ def circuit_page(fig, tr: dict):
             f"and a twice finer one agree within 1 dB in H_V ({conv['source']}). Above it (grey) the "
             "ear's own mesh error is of the order of the deviations shown."
         )
+    change = conv.get("delta_h_v_change_db_at_1_5_10_khz")
+    if change:
+        worst = [max(abs(v[i]) for v in change.values()) for i in range(3)]
+        notes.append(
+            "dH_V on this drum against the converged drum (0.125 mm), cases "
+            + ", ".join(change)
+            + f": at most {worst[0]:.3f}, {worst[1]:.3f} and {worst[2]:.3f} dB apart at 1, 5 and 10 kHz "
+            f"({conv['delta_h_v_source']})."
+        )
     else:
         notes.append(
             f"The band in which this drum (mesh size {conv['drum_mesh_size_m'] * 1e3:.3g} mm) is "

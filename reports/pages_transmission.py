@@ -16,7 +16,7 @@ def _deg(x) -> np.ndarray:
 
 
 def hv_page(fig, tr: dict, arrays: dict):
-    """The whole ear's H_V and umbo velocity (FE), the lumped ear beside it, the cat data."""
+    """The whole ear's H_V and umbo velocity (fast ear and FE), the lumped ear beside it, the cat data."""
     f = arrays["freq_hz"]
     first = tr["cases"][0]
     ax_m = fig.add_axes([0.12, 0.70, 0.80, 0.21])
@@ -37,8 +37,10 @@ def hv_page(fig, tr: dict, arrays: dict):
     ax_p.set_ylabel("phase (deg)", fontsize=7)
     ax_p.set_xlabel("frequency (Hz)", fontsize=7)
     ax_m.legend(fontsize=6, ncol=2)
+    how = tr["fe_reductions"].get(first, {}).get("model", "fe")
     ax_m.set_title(
-        f"FE whole ear (reduced), case {first} and a rigid incus-stapes connection; x: direct FE checks",
+        f"whole ear, case {first} ({'fast ear' if how == 'fast' else 'FE reduced ear'}) and a rigid "
+        "incus-stapes connection (FE reduced ear); x: direct FE checks",
         fontsize=8,
     )
     for ax in (ax_m, ax_p):
@@ -66,8 +68,8 @@ def hv_page(fig, tr: dict, arrays: dict):
     ax_g.tick_params(labelsize=6)
     ax_g.grid(True, which="both", lw=0.3)
     chk = tr["fe_checks"]
-    lines = []
-    if chk:
+    lines = fast_ear_lines(tr)
+    if chk.get("checks"):
         lines.append(
             f"Reduction checked against {len(chk['checks'])} direct FE harmonic solves (case {chk['case']}): "
             f"largest error {100 * chk['max_mag_rel_error']:.3f} % in magnitude, "
@@ -92,8 +94,33 @@ def hv_page(fig, tr: dict, arrays: dict):
     text_block(fig, 0.07, 0.31, wrap("\n".join(lines), 110), fontsize=7)
 
 
+def fast_ear_lines(tr: dict) -> list[str]:
+    """Which model gave each case, and the fast ear against the FE reductions (step's checks)."""
+    models = {n: r.get("model", "fe") for n, r in tr["fe_reductions"].items()}
+    fast = [n for n, m in models.items() if m == "fast"]
+    fe = [n for n, m in models.items() if m == "fe"]
+    lines = [f"Fast ear (docs/fast_ear.md): {', '.join(fast) or 'none'}; FE reduced ears: {', '.join(fe)}."]
+    chk = tr["fe_checks"].get("fast_ear")
+    if chk:
+        parts = []
+        for key, label in (("h_v", "H_V"), ("delta_h_v", "dH_V"), ("rigid_h_v", "rigid H_V")):
+            a, b = chk[key]["to_10khz"], chk[key]["band"]
+            parts.append(
+                f"{label} {a['max_db']:.2g} dB / {a['max_deg']:.2g} deg to 10 kHz "
+                f"({b['max_db']:.2g} dB / {b['max_deg']:.2g} deg over the band)"
+            )
+        tg = chk["targets_to_10khz"]
+        lines.append(
+            f"Fast ear against the FE reduced ear, case {chk['case']}: largest difference "
+            + "; ".join(parts)
+            + f". Targets to 10 kHz: H_V {tg['h_v_db']} dB and {tg['h_v_deg']} deg, dH_V "
+            f"{tg['delta_db']} dB and {tg['delta_deg']} deg."
+        )
+    return lines
+
+
 def delta_page(fig, tr: dict, arrays: dict, lumped: dict, lumped_arrays: dict):
-    """ΔH_V for every case (FE), the pedicle's share, how the ear drives the joint (lumped)."""
+    """ΔH_V for every case (fast ear or FE), the pedicle's share, how the ear drives the joint (lumped)."""
     f = arrays["freq_hz"]
     cases = tr["cases"]
     d = arrays["delta"]
@@ -107,9 +134,9 @@ def delta_page(fig, tr: dict, arrays: dict, lumped: dict, lumped_arrays: dict):
     ld = lumped_arrays["lumped_delta"][:, 0]
     ax_m.semilogx(lumped_arrays["freq_hz"], _db(ld), "k:", lw=1, label=f"lumped, {cases[0]}")
     ax_p.semilogx(lumped_arrays["freq_hz"], _deg(ld), "k:", lw=1)
-    ax_m.set_title("dH_V = H_V / H_V,rigid (dB), FE", fontsize=8)
-    ax_p.set_title("dH_V phase (deg), FE", fontsize=8)
-    ax_s.set_title("pedicle share |beta / (alpha + beta)|, FE", fontsize=8)
+    ax_m.set_title("dH_V = H_V / H_V,rigid (dB), whole ear", fontsize=8)
+    ax_p.set_title("dH_V phase (deg), whole ear", fontsize=8)
+    ax_s.set_title("pedicle share |beta / (alpha + beta)|, whole ear", fontsize=8)
     ax_s.set_ylim(0, 1.5)
     ax_m.legend(fontsize=5.5, ncol=2)
     named = (
@@ -132,7 +159,7 @@ def delta_page(fig, tr: dict, arrays: dict, lumped: dict, lumped_arrays: dict):
         ax.tick_params(labelsize=6)
         ax.grid(True, which="both", lw=0.3)
         ax.set_xlabel("frequency (Hz)", fontsize=6)
-    lines = [f"{'dH_V, FE':15}" + "".join(f"{c:>15}" for c in cases)]
+    lines = [f"{'dH_V':15}" + "".join(f"{c:>15}" for c in cases)]
     for q in tr["quote"]:
         lines.append(
             f"{q['freq_hz']:8.0f} Hz    "
@@ -171,7 +198,9 @@ def delta_page(fig, tr: dict, arrays: dict, lumped: dict, lumped_arrays: dict):
         )
     note = (
         "dH_V compares each case's stapes velocity with that of a rigid incus-stapes connection, both "
-        "on the FE ear with the same damping. " + cost + "Why beta barely follows the pedicle inside "
+        "on the whole ear (fast ear, FE reductions beside it) with the same damping. "
+        + cost
+        + "Why beta barely follows the pedicle inside "
         "the ear: the ear's stiffness condensed onto the joint's (alpha, beta) is "
         f"{base['env_ratio'][0]:.0f} times the joint's own along the motion at 0 Hz, so the joint is "
         "displacement-driven: the pedicle takes the relative rotation the chain imposes, and alpha takes "

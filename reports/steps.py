@@ -397,7 +397,7 @@ STEPS = (
     ("load_path", load_path_step, ("design", "geometry", "ear", "sweep", "transmission")),
     ("sliding", sliding_step, ("design", "geometry", "mesh", "sliding")),
     ("guard", guard_step, ("design", "geometry", "mesh", "guard")),
-    ("uq", uq_step, ("design", "geometry", "uq")),
+    ("uq", uq_step, ("design", "geometry", "mesh", "ear", "sweep", "transmission", "uq")),
     # last: its FE geometries may push the report geometry's model out of fem.batch's memo
     ("geometry_trends", geometry_trends_step, ("design", "geometry", "mesh", "geometry_trends")),
 )

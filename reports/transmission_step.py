@@ -39,6 +39,16 @@ DRUM_CONVERGENCE = {
     "mesh_size_m": 0.25e-3,
     "within_1db_up_to_hz": 2.6e3,
     "source": "docs/ear.md 5.14: the default drum against a twice finer one, H_V within 1 dB",
+    "delta_h_v_change_db_at_1_5_10_khz": {
+        "base": [0.0007, -0.070, 0.240],
+        "p3": [0.0008, -0.076, 0.263],
+        "p12": [0.0007, -0.065, 0.219],
+        "j5c20": [0.0022, -0.103, 0.309],
+    },
+    "delta_h_v_source": (
+        "benchmarks/drum_cases.py (docs/ear.md 5.15): dH_V on the converged drum (0.125 mm) minus "
+        "dH_V on this drum, default joint mesh"
+    ),
 }
 
 #: The ``[transmission] cavities`` choices and the cavity states each computes beside the open ear.
@@ -76,11 +86,24 @@ def _columns(resp) -> dict:
     return {n: resp.response[:, i, 0] for i, n in enumerate(resp.output_names)}
 
 
+#: Where the fast ear's agreement with the FE ear is quoted (Hz): its targets hold to 10 kHz
+#: (docs/fast_ear.md §14); the band above is stated beside.
+FAST_EAR_TARGET_BAND_HZ = 10e3
+
+
 def fe_band(ctx, freq_hz: np.ndarray) -> tuple[dict, dict, dict, dict]:
-    """FE H_V etc. per case and rigid over ``freq_hz``, the reduction's direct checks, and per ear
-    the cavity states' data (:func:`cavity_columns`; no new reduction)."""
+    """H_V etc. per case and rigid over ``freq_hz``, the checks, and per ear the cavity states'
+    data (:func:`cavity_columns`).
+
+    The rigid connection is one FE reduction. With ``cases_from = "fast"`` each case comes from
+    the fast ear (:mod:`isj.fem.ear.fast_ear`, built once per mesh and ear and cached) when the
+    fast ear covers its materials, else (and with "fe") from its own FE reduction. The first
+    case is also reduced with FE: the fast ear is checked against it and against the rigid
+    reduction, and the reduction against ``fe_checks`` direct harmonic solves.
+    """
     from isj.fem.batch import shared_model
     from isj.fem.ear import reduced_ear as es
+    from isj.fem.ear.fast_ear import fast_ear
     from isj.fem.ear.middle_ear import MiddleEarModel
 
     cfg, t = ctx.config, ctx.config.transmission
@@ -93,24 +116,25 @@ def fe_band(ctx, freq_hz: np.ndarray) -> tuple[dict, dict, dict, dict]:
     rigid = es.reduced_ear(rigid_model, base, cfg.ear, fmax_hz=t.fmax_hz)
     out = {"rigid": _columns(rigid.frequency_response(freq_hz, damping))}
     cav = {"rigid": cavity_columns(rigid, freq_hz, damping, states)}
-    info = {"rigid": {"n_dofs": rigid.n_dofs}}
-    checks = {}
+    info = {"rigid": {"model": "fe", "n_dofs": rigid.n_dofs}}
+    fast = fast_ear(ear, cfg.ear, fmax_hz=t.fmax_hz) if t.cases_from == "fast" else None
     from tqdm import tqdm
 
-    bar = tqdm(t.cases, desc="FE ear over the band", unit="case", disable=not ctx.progress, leave=False)
+    bar = tqdm(t.cases, desc="whole ear over the band", unit="case", disable=not ctx.progress, leave=False)
+    first_rom = None
     for i, name in enumerate(bar):
         mats = case_by_name(name).materials(base)
+        if fast is not None and fast.covers(mats):
+            out[name], cav[name] = fast_columns(fast, mats, freq_hz, damping, states)
+            info[name] = {"model": "fast", "n_dofs": fast.n_dofs}  # no seconds: same inputs, same JSON
+            continue
         rom = es.reduced_ear(ear, mats, cfg.ear, fmax_hz=t.fmax_hz)
         out[name] = _columns(rom.frequency_response(freq_hz, damping))
         cav[name] = cavity_columns(rom, freq_hz, damping, states)
-        info[name] = {"n_dofs": rom.n_dofs}  # no seconds: the same inputs give the same JSON
-        if i == 0 and t.fe_checks:
-            f_chk = es.check_frequencies_hz(t.fmin_hz, t.fmax_hz, t.fe_checks)
-            checks = es.check_against_direct(ear, rom, f_chk, damping, mats, cfg.ear)
-            checks["case"] = name
-            for k in ("direct_seconds", "direct_seconds_per_frequency"):  # timings live in run.json
-                checks.pop(k, None)
-    if t.sliding_cases:  # the same ear with the sliding joint (docs/model.md §2.12)
+        info[name] = {"model": "fe", "n_dofs": rom.n_dofs}
+        first_rom = rom if i == 0 else first_rom
+    checks = fe_checks(ctx, ear, fast, rigid, first_rom, freq_hz, out)
+    if t.sliding_cases:  # the same ear with the sliding joint (docs/model.md §2.12): FE reductions
         from isj.fem.model import PedicleJointModel
 
         mesh = cfg.mesh
@@ -120,8 +144,74 @@ def fe_band(ctx, freq_hz: np.ndarray) -> tuple[dict, dict, dict, dict]:
             rom = es.reduced_ear(sliding, case_by_name(name).materials(base), cfg.ear, fmax_hz=t.fmax_hz)
             out[f"{name}_sliding"] = _columns(rom.frequency_response(freq_hz, damping))
             cav[f"{name}_sliding"] = cavity_columns(rom, freq_hz, damping, states)
-            info[f"{name}_sliding"] = {"n_dofs": rom.n_dofs}
+            info[f"{name}_sliding"] = {"model": "fe", "n_dofs": rom.n_dofs}
     return out, info, checks, cav
+
+
+def fast_columns(fast, mats, freq_hz, damping, states) -> tuple[dict, dict]:
+    """One case's columns (as :func:`_columns`) and cavity data (as :func:`cavity_columns`) from
+    the fast ear: H_V, the umbo's velocity, α, β and the pedicle's share β / (α + β)."""
+    resp = fast.frequency_response(freq_hz, mats, damping)
+    c = {n: resp.response[:, i, 0] for i, n in enumerate(resp.output_names)}
+    a, b = c["alpha_rad"], c["beta_rad"]
+    cols = {k: c[k] for k in ("stapes_velocity_m_s", "umbo_velocity_m_s", "alpha_rad", "beta_rad")}
+    cols["pedicle_share"] = np.where(a + b != 0, b / np.where(a + b != 0, a + b, 1), np.nan)
+    cav = {"drum_volume_m3": fast.drum_volume_m3(freq_hz, mats, damping)}
+    if "intact" in states:
+        resp = fast.frequency_response(freq_hz, mats, damping, cavities="intact")
+        cav["intact"] = resp.response[:, resp.output_names.index("stapes_velocity_m_s"), 0]
+    return cols, cav
+
+
+def _agreement(freq_hz, a, b) -> dict:
+    """Largest |20 log10 |a/b|| (dB) and |∠(a/b)| (deg), to :data:`FAST_EAR_TARGET_BAND_HZ` and
+    over the whole band, with the frequencies where they occur."""
+    f = np.asarray(freq_hz)
+    r = np.asarray(a) / np.asarray(b)
+    out = {}
+    for band, sel in (("to_10khz", f <= FAST_EAR_TARGET_BAND_HZ), ("band", np.ones(f.size, bool))):
+        db, deg = np.abs(_db(r[sel])), np.abs(_deg(r[sel]))
+        out[band] = {
+            "max_db": float(db.max()),
+            "max_db_at_hz": float(f[sel][np.argmax(db)]),
+            "max_deg": float(deg.max()),
+            "max_deg_at_hz": float(f[sel][np.argmax(deg)]),
+        }
+    return out
+
+
+def fe_checks(ctx, ear, fast, rigid, first_rom, freq_hz, out) -> dict:
+    """The checks of the step's ears: the fast ear against the FE reductions of the rigid
+    connection and of the first case (ΔH_V too), and that reduction against direct harmonic
+    solves (:func:`isj.fem.ear.reduced_ear.check_against_direct`)."""
+    from isj.fem.ear import reduced_ear as es
+
+    cfg, t = ctx.config, ctx.config.transmission
+    damping = cfg.sweep.damping_model()
+    first = t.cases[0]
+    mats = case_by_name(first).materials(cfg.design.materials())
+    checks = {}
+    if first_rom is None:  # the first case came from the fast ear: reduce it with FE to check it
+        first_rom = es.reduced_ear(ear, mats, cfg.ear, fmax_hz=t.fmax_hz)
+        fe_first = _columns(first_rom.frequency_response(freq_hz, damping))["stapes_velocity_m_s"]
+        fe_rigid = out["rigid"]["stapes_velocity_m_s"]
+        fast_first = out[first]["stapes_velocity_m_s"]
+        fast_rigid = fast.rigid(freq_hz, damping)
+        checks["fast_ear"] = {
+            "what": "fast ear against the FE reduced ear: H_V and dH_V (dB, deg)",
+            "case": first,
+            "h_v": _agreement(freq_hz, fast_first, fe_first),
+            "delta_h_v": _agreement(freq_hz, fast_first / fast_rigid, fe_first / fe_rigid),
+            "rigid_h_v": _agreement(freq_hz, fast_rigid, fe_rigid),
+            "targets_to_10khz": {"h_v_db": 0.5, "h_v_deg": 3.0, "delta_db": 0.1, "delta_deg": 1.0},
+        }
+    if t.fe_checks:
+        f_chk = es.check_frequencies_hz(t.fmin_hz, t.fmax_hz, t.fe_checks)
+        checks |= es.check_against_direct(ear, first_rom, f_chk, damping, mats, cfg.ear)
+        checks["case"] = first
+        for k in ("direct_seconds", "direct_seconds_per_frequency"):  # timings live in run.json
+            checks.pop(k, None)
+    return checks
 
 
 def cavity_columns(rom, freq_hz, damping, states) -> dict:
@@ -269,6 +359,12 @@ def drum_convergence() -> dict:
         "drum_mesh_size_m": size,
         "within_1db_up_to_hz": DRUM_CONVERGENCE["within_1db_up_to_hz"] if measured else None,
         "source": DRUM_CONVERGENCE["source"] if measured else "not measured for this drum",
+        "delta_h_v_change_db_at_1_5_10_khz": (
+            DRUM_CONVERGENCE["delta_h_v_change_db_at_1_5_10_khz"] if measured else None
+        ),
+        "delta_h_v_source": DRUM_CONVERGENCE["delta_h_v_source"]
+        if measured
+        else "not measured for this drum",
     }
 
 

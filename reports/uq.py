@@ -167,8 +167,26 @@ def uq_figure(result, title: str = "Uncertainty of the moduli: alpha, beta and b
     return fig
 
 
+def transmission_evaluator(ctx):
+    """ΔH_V of the report's whole ear through its fast ear (the transmission step's, from the
+    cache), or None when ``[uq] transmission_samples`` is 0."""
+    cfg = ctx.config
+    if not cfg.uq.transmission_samples:
+        return None
+    from isj.fem.batch import shared_model
+    from isj.fem.ear.fast_ear import fast_ear
+    from isj.fem.ear.middle_ear import MiddleEarModel
+
+    from isj.studies.uq import TransmissionEvaluator
+
+    joint, _ = shared_model(ctx.settings)
+    fast = fast_ear(MiddleEarModel(joint=joint), cfg.ear, fmax_hz=cfg.transmission.fmax_hz)
+    return TransmissionEvaluator(fast, damping=cfg.sweep.damping_model())
+
+
 def uq_step(ctx) -> tuple[dict, dict]:
-    """The moduli's uncertainty carried to α, β and β/α on the lumped model (docs/uq.md §11)."""
+    """The moduli's uncertainty carried to α, β and β/α on the lumped model, and to ΔH_V on the
+    fast ear (docs/uq.md §11)."""
     from isj.lumped.api import LumpedModel
 
     from isj.studies.uq import lumped_evaluator, run_uq
@@ -177,16 +195,24 @@ def uq_step(ctx) -> tuple[dict, dict]:
     cfg, u = ctx.config, ctx.config.uq
     lm = LumpedModel(ctx.calibration, cfg.geometry)
     domain = dict(ctx.calibration.domain)
-    config = UQConfig.default(
-        domain, samples=u.samples, sobol_samples=u.sobol_samples, bootstrap=u.bootstrap, seed=u.seed
-    )
+    counts = {"samples": u.samples, "sobol_samples": u.sobol_samples, "bootstrap": u.bootstrap}
+    counts["seed"] = u.seed
+    if u.transmission_samples:
+        counts |= {
+            "transmission_samples": min(u.transmission_samples, u.samples),
+            "transmission_sobol_samples": u.transmission_sobol_samples,
+        }
+    config = UQConfig.default(domain, **counts)
     r = run_uq(
         config,
         lumped_evaluator(lm, cfg.design.pressure_pa),
         pressure_pa=cfg.design.pressure_pa,
         domain=domain,
+        transmission=transmission_evaluator(ctx),
     )
     out = r.to_dict()
     out.pop("time_s")  # the same inputs give the same JSON
+    if "transmission" in out:
+        out["transmission"].pop("time_s", None)
     out["top_total"] = {k: r.top_total(k) for k in ("alpha_rad", "beta_rad", "beta_over_alpha")}
     return out | {"histograms": r.histogram_dict()}, {}

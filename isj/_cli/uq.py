@@ -37,9 +37,8 @@ def register(sub) -> None:
         SAMPLES_RANGE,
         SEED_RANGE,
         SOBOL_SAMPLES_RANGE,
-        TRANSMISSION_SAMPLES_RANGE,
-        TRANSMISSION_SOBOL_SAMPLES_RANGE,
     )
+    from isj.validate import TRANSMISSION_SAMPLES_RANGE, TRANSMISSION_SOBOL_SAMPLES_RANGE
 
     p = sub.add_parser(
         "uq", help="uncertainty of the moduli: Monte Carlo of alpha, beta, beta/alpha; Sobol' indices"
@@ -134,7 +133,7 @@ def write_outputs(folder, args, result, summary: dict | None = None) -> None:
     JSON for uq.json (default ``result.to_dict()``)."""
     from isj.atomic import atomic_write_text
     from isj.reports.uq import uq_figure
-    from isj.studies.uq import OUTPUTS, QUANTILES, UNITS
+    from isj.studies.uq import OUTPUTS, QUANTILES, UNITS, transmission_csv
 
     from ..provenance import write_run_record
 
@@ -164,37 +163,6 @@ def write_outputs(folder, args, result, summary: dict | None = None) -> None:
     fig.savefig(folder / "uq.png", dpi=110)
     if result.transmission is not None:
         atomic_write_text(folder / "transmission.csv", transmission_csv(result.transmission))
-
-
-def transmission_csv(t: dict) -> str:
-    """``transmission.csv``: per ΔH_V output its quantiles, mean and std, then P(|ΔH_V| > 1 dB)
-    with its standard error, then the Sobol' indices (one table, ``kind`` column)."""
-    from isj.studies.uq import QUANTILES
-
-    head = (
-        f"# Delta H_V = H_V / H_V(rigid connection) through the fast ear; {t['samples']} draws; "
-        f"grid {len(t['freq_hz'])} frequencies {t['freq_hz'][0]:g}..{t['freq_hz'][-1]:g} Hz; units: "
-        + ", ".join(f"{k} {u}" for k, u in t["units"].items())
-        + "\n"
-    )
-    rows = []
-    for k, s in t["summary"].items():
-        rows += [["quantile", k, "", f"{q:g}", f"{s['quantiles'][f'{q:g}']:.9g}", ""] for q in QUANTILES]
-        rows += [["mean", k, "", "", f"{s['mean']:.9g}", ""], ["std", k, "", "", f"{s['std']:.9g}", ""]]
-    rows.append(
-        [
-            "probability",
-            "max_abs_delta_h_v_db_to_10khz",
-            "",
-            f"> {t['threshold_db']:g} dB",
-            f"{t['p_abs_delta_h_v_gt_1db']:.9g}",
-            f"{t['p_abs_delta_h_v_gt_1db_se']:.3g}",
-        ]
-    )
-    for k, ix in t["sobol"].items():
-        for key in ("S1", "ST"):
-            rows += [[key, k, m, "", f"{ix[key][m]:.6g}", f"{ix[key + '_conf'][m]:.3g}"] for m in ix[key]]
-    return head + _csv("kind,output,modulus,probability,value,error", rows)
 
 
 def surrogate_evaluator(rom, pressure_pa: float):

@@ -83,6 +83,7 @@ __all__ = [
     "sobol_indices",
     "summarise",
     "transmission_uq",
+    "transmission_csv",
     "uq_config_from_dict",
 ]
 
@@ -479,6 +480,36 @@ def transmission_uq(
         "sobol": sobol,
         "time_s": {"monte_carlo": t1 - t0, "sobol": t2 - t1, "total": t2 - t0},
     }
+
+
+def transmission_csv(t: dict) -> str:
+    """``transmission.csv``: per ΔH_V output its quantiles, mean and std, then P(|ΔH_V| > 1 dB)
+    with its standard error, then the Sobol' indices (one table, ``kind`` column)."""
+    head = (
+        f"# Delta H_V = H_V / H_V(rigid connection) through the fast ear; {t['samples']} draws; "
+        f"grid {len(t['freq_hz'])} frequencies {t['freq_hz'][0]:g}..{t['freq_hz'][-1]:g} Hz; units: "
+        + ", ".join(f"{k} {u}" for k, u in t["units"].items())
+        + "\n"
+    )
+    rows = []
+    for k, s in t["summary"].items():
+        rows += [["quantile", k, "", f"{q:g}", f"{s['quantiles'][f'{q:g}']:.9g}", ""] for q in QUANTILES]
+        rows += [["mean", k, "", "", f"{s['mean']:.9g}", ""], ["std", k, "", "", f"{s['std']:.9g}", ""]]
+    rows.append(
+        [
+            "probability",
+            "max_abs_delta_h_v_db_to_10khz",
+            "",
+            f"> {t['threshold_db']:g} dB",
+            f"{t['p_abs_delta_h_v_gt_1db']:.9g}",
+            f"{t['p_abs_delta_h_v_gt_1db_se']:.3g}",
+        ]
+    )
+    for k, ix in t["sobol"].items():
+        for key in ("S1", "ST"):
+            rows += [[key, k, m, "", f"{ix[key][m]:.6g}", f"{ix[key + '_conf'][m]:.3g}"] for m in ix[key]]
+    body = "".join(",".join(map(str, r)) + "\n" for r in rows)
+    return head + "kind,output,modulus,probability,value,error\n" + body
 
 
 def compare_evaluators(

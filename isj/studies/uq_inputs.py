@@ -19,7 +19,12 @@ import numpy as np
 from isj.design import Materials
 from isj.errors import ConfigError
 from isj.lumped.model import MODULI
-from isj.validate import MODULUS_RANGE_PA, read_toml
+from isj.validate import (
+    MODULUS_RANGE_PA,
+    TRANSMISSION_SAMPLES_RANGE,
+    TRANSMISSION_SOBOL_SAMPLES_RANGE,
+    read_toml,
+)
 
 #: Distribution kinds.
 KINDS = ("loguniform", "lognormal", "fixed")
@@ -32,8 +37,6 @@ DEFAULT_BOOTSTRAP = 100
 #: draws) and Saltelli base samples, and their ranges.
 DEFAULT_TRANSMISSION_SAMPLES = 20_000
 DEFAULT_TRANSMISSION_SOBOL_SAMPLES = 2**10
-TRANSMISSION_SAMPLES_RANGE = (100, 1_000_000)
-TRANSMISSION_SOBOL_SAMPLES_RANGE = (2**6, 2**14)
 #: Ranges of the counts: [lo, hi] (Sobol' base samples: also a power of 2).
 SAMPLES_RANGE = (1_000, 10_000_000)
 SOBOL_SAMPLES_RANGE = (2**6, 2**18)
