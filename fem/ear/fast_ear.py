@@ -712,6 +712,59 @@ class FastEar:
         return cls(arrays, space, meta)
 
 
+def _modal_projection(level1, V, info, model) -> tuple[dict, np.ndarray, np.ndarray]:
+    """(parts, load, output rows) on the shells' basis V, each shell's interior made modal (as
+    :func:`fem.ear.reduced_ear.reduced_ear`) and every part symmetric to rounding."""
+    groups = _project(level1, V)
+    load = V.T @ level1.load
+    rows = level1.restrict(output_rows(model)) @ V
+    for name, (a, b) in info["interior"].items():
+        U = sla.eigh(groups["stiffness"][name][a:b, a:b], groups["mass"][name][a:b, a:b])[1]
+        for P in (P for g in groups.values() for P in g.values()):
+            P[:, a:b] = P[:, a:b] @ U
+            P[a:b, :] = U.T @ P[a:b, :]
+        load[a:b] = U.T @ load[a:b]
+        rows[:, a:b] = rows[:, a:b] @ U
+    for g in groups.values():
+        for name, P in g.items():
+            g[name] = 0.5 * (P + P.T)
+    return groups, load, rows
+
+
+def _joint_columns(V, level1, m: int, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """The reduced coordinates that are x_B's and z's level-1 coordinates (each kept as a unit
+    column among the first ``k``): (jb, jz)."""
+
+    def column_of(pos):
+        c = np.argmax(np.abs(V[pos, :k]), axis=1)
+        if not np.allclose(V[pos, c], 1.0) or not np.allclose(np.abs(V[pos]).sum(axis=1), 1.0):
+            raise RuntimeError("fast ear: a joint coordinate is not kept by the shells' basis")
+        return c
+
+    return column_of(level1.b), column_of(level1.R.size + np.arange(m))
+
+
+def _check_structure(groups, joint_regions, jb, jz, k: int) -> None:
+    """The structure the fast ear's algebra relies on: the shells' modal coordinates uncoupled,
+    the joint's parts acting on x_B and z only, the rest of the ear never on z."""
+    off = max(
+        np.abs(P[k:, k:] - np.diag(np.diagonal(P[k:, k:]))).max(initial=0.0) / max(abs(P).max(), 1e-300)
+        for g in groups.values()
+        for P in g.values()
+    )
+    if off > 1e-8:
+        raise RuntimeError(f"fast ear: the shells' modal coordinates are coupled ({off:.2g})")
+    joint = np.concatenate([jb, jz])
+    for g in groups.values():
+        for name, P in g.items():
+            if name in joint_regions:
+                rest = np.setdiff1d(np.arange(P.shape[0]), joint)
+                if np.abs(P[rest]).max(initial=0.0) > 1e-10 * np.abs(P).max():
+                    raise RuntimeError(f"fast ear: the joint part {name} acts outside the joint")
+            elif np.abs(P[jz]).max(initial=0.0) > 1e-10 * np.abs(P).max():
+                raise RuntimeError(f"fast ear: the part {name} acts on the joint's interior")
+
+
 def build_fast_ear(
     model,
     ear_materials: EarMaterials | None = None,
@@ -757,50 +810,12 @@ def build_fast_ear(
     level1 = condensed_ear(parts, model, psi, phi)
     V, info = shell_basis(level1, fmax_hz, n_shifts)
     t3 = time.perf_counter()
-    groups = _project(level1, V)
-    load = V.T @ level1.load
-    rows = level1.restrict(output_rows(model)) @ V
-    for name, (a, b) in info["interior"].items():  # each shell's interior made modal (as reduced_ear)
-        U = sla.eigh(groups["stiffness"][name][a:b, a:b], groups["mass"][name][a:b, a:b])[1]
-        for P in (P for g in groups.values() for P in g.values()):
-            P[:, a:b] = P[:, a:b] @ U
-            P[a:b, :] = U.T @ P[a:b, :]
-        load[a:b] = U.T @ load[a:b]
-        rows[:, a:b] = rows[:, a:b] @ U
-    for g in groups.values():
-        for name, P in g.items():
-            g[name] = 0.5 * (P + P.T)
+    groups, load, rows = _modal_projection(level1, V, info, model)
     k = info["kept_dofs"]
-    nR = level1.R.size
-
-    def column_of(pos):  # the reduced coordinate that is level-1 coordinate ``pos`` (kept: unit)
-        c = np.argmax(np.abs(V[pos, :k]), axis=1)
-        if not np.allclose(V[pos, c], 1.0) or not np.allclose(np.abs(V[pos]).sum(axis=1), 1.0):
-            raise RuntimeError("fast ear: a joint coordinate is not kept by the shells' basis")
-        return c
-
-    jb = column_of(level1.b)
-    jz = column_of(nR + np.arange(phi.shape[1]))
+    jb, jz = _joint_columns(V, level1, phi.shape[1], k)
     kr = np.setdiff1d(np.arange(k), np.concatenate([jb, jz]))
     ii = np.arange(k, V.shape[1])
-    off = max(
-        np.abs(P[k:, k:] - np.diag(np.diagonal(P[k:, k:]))).max(initial=0.0) / max(abs(P).max(), 1e-300)
-        for g in groups.values()
-        for P in g.values()
-    )
-    if off > 1e-8:
-        raise RuntimeError(f"fast ear: the shells' modal coordinates are coupled ({off:.2g})")
-    for g in groups.values():  # the joint's parts act on x_B and z only (checked)
-        for name in model.joint.regions:
-            if name in g:
-                P = g[name]
-                rest = np.setdiff1d(np.arange(P.shape[0]), np.concatenate([jb, jz]))
-                if np.abs(P[rest]).max(initial=0.0) > 1e-10 * np.abs(P).max():
-                    raise RuntimeError(f"fast ear: the joint part {name} acts outside the joint")
-    for g in groups.values():  # and the rest of the ear never on z
-        for name, P in g.items():
-            if name not in model.joint.regions and np.abs(P[jz]).max(initial=0.0) > 1e-10 * np.abs(P).max():
-                raise RuntimeError(f"fast ear: the part {name} acts on the joint's interior")
+    _check_structure(groups, model.joint.regions, jb, jz, k)
     g_ = model.geometry
     arrays = {f"k:{n}": P for n, P in groups["stiffness"].items()}
     arrays |= {f"m:{n}": P for n, P in groups["mass"].items()}
