@@ -106,7 +106,6 @@ def run_ear_sweep(
         Called with the lumped sweep before any FE model is built (the command line refuses a
         response that is not finite there).
     """
-    from isj.fem.ear.dynamics import harmonic
     from isj.fem.ear.middle_ear import MiddleEarModel
     from isj.fem.model import PedicleJointModel
 
@@ -135,36 +134,10 @@ def run_ear_sweep(
         "alpha_rad": fe.alpha_rad_per_pa,
         "beta_rad": fe.beta_rad_per_pa,
     }
-    errors = sw.static_errors(fe_vals)
-    passed = max(errors["umbo_m"], errors["stapes_m"]) <= tolerance
-    check = {
-        "freq_hz": float(sw.freq_hz[0]),
-        "compared_with": "lumped static limit (0 Hz); FE values are static, marked at the lowest frequency",
-        **{f"fe_{k}": [float(v), 0.0] for k, v in fe_vals.items() if v is not None},
-        **{f"lumped_static_{k}": float(sw.static[j]) for j, k in enumerate(sw.outputs)},
-        **{f"{k}_rel_error": e for k, e in errors.items()},
-        "passed": passed,
-    }
-    # FE whole-ear harmonic spot checks inside the band (same masses and damping as the lumped ear)
-    fe_checks = []
-    if np.size(fe_freq_hz):
-        keys = sw.outputs if not rigid_joint else sw.outputs[:2]
-
-        def fe_response(f):
-            return harmonic(fe_model, f, materials, ear_materials, damping).outputs()
-
-        comp = sw.fe_checks(fe_freq_hz, fe_response, keys)
-        ok = comp.passed(tolerance, ("umbo_m", "stapes_m"))
-        for i, fr in enumerate(comp.freq_hz):
-            fe_checks.append(
-                {
-                    "freq_hz": float(fr),
-                    **{f"fe_{k}": _pair(comp.fe[i, j]) for j, k in enumerate(keys)},
-                    **{f"lumped_{k}": _pair(comp.lumped[i, j]) for j, k in enumerate(keys)},
-                    **{f"{k}_rel_error": e for k, e in comp.errors(i).items()},
-                    "passed": bool(ok[i]),
-                }
-            )
+    check, errors, passed = _static_check(sw, fe_vals, tolerance)
+    fe_checks = _harmonic_checks(
+        sw, fe_model, fe_freq_hz, materials, ear_materials, damping, tolerance, rigid_joint
+    )
     t3 = time.perf_counter()
     summary = {
         "n_freq": int(np.size(freq_hz)),
@@ -207,3 +180,49 @@ def lumped_delta(sw, calibration, materials, ear_materials, damping, drum_modes,
         drum_modes=drum_modes,
     )
     return delta_columns(sw.freq_hz, h_v, iw * rigid.response[:, rigid.outputs.index("stapes_m")])
+
+
+def _static_check(sw: EarSweep, fe_vals: dict, tolerance: float) -> tuple[dict, dict, bool]:
+    """(check record, relative errors, passed) of the lumped sweep's 0 Hz limit against the FE
+    ear's static outputs ``fe_vals``."""
+    errors = sw.static_errors(fe_vals)
+    passed = max(errors["umbo_m"], errors["stapes_m"]) <= tolerance
+    check = {
+        "freq_hz": float(sw.freq_hz[0]),
+        "compared_with": "lumped static limit (0 Hz); FE values are static, marked at the lowest frequency",
+        **{f"fe_{k}": [float(v), 0.0] for k, v in fe_vals.items() if v is not None},
+        **{f"lumped_static_{k}": float(sw.static[j]) for j, k in enumerate(sw.outputs)},
+        **{f"{k}_rel_error": e for k, e in errors.items()},
+        "passed": passed,
+    }
+    return check, errors, passed
+
+
+def _harmonic_checks(
+    sw, fe_model, fe_freq_hz, materials, ear_materials, damping, tolerance, rigid_joint
+) -> list:
+    """The FE whole ear's harmonic spot checks inside the band (same masses and damping as the
+    lumped ear): per frequency both responses, the relative errors and whether it passed."""
+    from isj.fem.ear.dynamics import harmonic
+
+    fe_checks = []
+    if not np.size(fe_freq_hz):
+        return fe_checks
+    keys = sw.outputs if not rigid_joint else sw.outputs[:2]
+
+    def fe_response(f):
+        return harmonic(fe_model, f, materials, ear_materials, damping).outputs()
+
+    comp = sw.fe_checks(fe_freq_hz, fe_response, keys)
+    ok = comp.passed(tolerance, ("umbo_m", "stapes_m"))
+    for i, fr in enumerate(comp.freq_hz):
+        fe_checks.append(
+            {
+                "freq_hz": float(fr),
+                **{f"fe_{k}": _pair(comp.fe[i, j]) for j, k in enumerate(keys)},
+                **{f"lumped_{k}": _pair(comp.lumped[i, j]) for j, k in enumerate(keys)},
+                **{f"{k}_rel_error": e for k, e in comp.errors(i).items()},
+                "passed": bool(ok[i]),
+            }
+        )
+    return fe_checks
