@@ -64,7 +64,8 @@ def _run(label: str, args: list[str], env: dict[str, str], out: Path) -> dict:
 
 def _print(result: dict) -> None:
     steps = result["steps_s"]
-    total = sum(steps.values()) or 1.0
+    # run.json's timings hold the steps and their "total": shares are of the total
+    total = steps.get("total") or sum(steps.values()) or 1.0
     print(f"{result['label']}: {result['wall_s']:.1f} s wall, peak {result['peak_rss_gb']:.2f} GB")
     for name, seconds in sorted(steps.items(), key=lambda kv: -kv[1]):
         mark = " (cached)" if name in result["cached_steps"] else ""
