@@ -47,17 +47,24 @@ REGENERATE = ".venv/bin/python tests/test_results_version.py --write"
 REGENERATE_STEPS = ".venv/bin/python tests/test_results_version.py --write-steps"
 
 #: Relative tolerance of a stored value made with the same library versions.
-RTOL = 1e-10
+#: (FE results agree within 2e-10 between the machine the reference was made on and an AMD EPYC
+#: one, MKL taking other code paths there; a real change of results is far larger.)
+RTOL = 1e-8
 #: Relative tolerance when numpy's or scipy's major.minor differs from the stored one.
 RTOL_OTHER_LIBS = 1e-6
 #: Values with a looser tolerance of their own: the surrogate's certified bounds are square roots
 #: of residual norms in which large terms nearly cancel (measured: 6e-9 relative between one and
 #: two PARDISO threads, where α and β agree within 2e-12).
-RTOL_OF = {("surrogate", "alpha_bound_rad"): 1e-6, ("surrogate", "beta_bound_rad"): 1e-6}
+#: Between two machines (other MKL code paths) the bounds moved by 2.3e-6.
+RTOL_OF = {("surrogate", "alpha_bound_rad"): 1e-4, ("surrogate", "beta_bound_rad"): 1e-4}
 
 #: Relative tolerance of a report step's numbers: they pass through eigensolvers, sampling
 #: estimates and the surrogate's bounds (6e-9 between thread counts, :data:`RTOL_OF`).
 RTOL_STEPS = 1e-6
+#: Step numbers that are the surrogate's certified bounds or errors: between two machines the
+#: guard's moved by up to 1.5e-4 (the same cancellation as :data:`RTOL_OF`).
+RTOL_STEPS_BOUNDS = 1e-3
+BOUNDS = re.compile(r"bound|certified")
 #: Numbers kept per step.
 N_STEP_VALUES = 8
 #: Result entries that are not results (wall times, dates, versions, paths).
@@ -286,7 +293,8 @@ def step_problems(name: str, result: dict, stored: dict | None) -> tuple[list[st
     out = []
     for path, ref in stored["values"].items():
         got = now.get(path)
-        if got is None or abs(got - ref) > RTOL_STEPS * abs(ref):
+        rtol = RTOL_STEPS_BOUNDS if BOUNDS.search(path) else RTOL_STEPS
+        if got is None or abs(got - ref) > rtol * abs(ref):
             out.append(
                 f"step {name}: {path}: stored {ref!r}, now {got!r} while its results versions {own} are "
                 f"unchanged. A change of code altered this step's results: bump its entry in "
@@ -344,11 +352,11 @@ def test_every_family_has_a_reference_and_a_computation():
 
 
 def test_a_changed_value_or_version_is_reported():
-    """The comparison itself: a stored value off by 1e-9 relative, or another version, is caught."""
+    """The comparison itself: a stored value off by 1e-7 relative, or another version, is caught."""
     stored = json.loads(REFERENCE.read_text())["families"]["lumped"]
     assert problems("lumped", stored) == ([], None)
     name = next(iter(stored["values"]))
-    off = {**stored, "values": {**stored["values"], name: stored["values"][name] * (1 + 1e-9)}}
+    off = {**stored, "values": {**stored["values"], name: stored["values"][name] * (1 + 1e-7)}}
     msgs, _ = problems("lumped", off)
     assert len(msgs) == 1 and name in msgs[0] and "bump the version" in msgs[0] and REGENERATE in msgs[0]
     bumped = {**stored, "versions": {**stored["versions"], "lumped": stored["versions"]["lumped"] + 1}}
