@@ -49,7 +49,6 @@ import warnings
 from pathlib import Path
 
 import numpy as np
-import scipy.linalg as sla
 import scipy.sparse as sp
 
 from isj.cachefile import DamagedEntry, canonical_json, discard, read_npz_entry, write_npz_entry
@@ -70,7 +69,7 @@ from .joint_condensation import (
     orthonormalize,
     part_coefficients,
 )
-from .reduced_ear import output_rows, shell_basis
+from .reduced_ear import modal_interiors, output_rows, shell_basis
 
 #: Bump when the stored arrays change meaning or value (it is part of the cache key): 2, eight
 #: snapshot designs (were 13) and the snapshots' solves batched.
@@ -718,13 +717,7 @@ def _modal_projection(level1, V, info, model) -> tuple[dict, np.ndarray, np.ndar
     groups = _project(level1, V)
     load = V.T @ level1.load
     rows = level1.restrict(output_rows(model)) @ V
-    for name, (a, b) in info["interior"].items():
-        U = sla.eigh(groups["stiffness"][name][a:b, a:b], groups["mass"][name][a:b, a:b])[1]
-        for P in (P for g in groups.values() for P in g.values()):
-            P[:, a:b] = P[:, a:b] @ U
-            P[a:b, :] = U.T @ P[a:b, :]
-        load[a:b] = U.T @ load[a:b]
-        rows[:, a:b] = rows[:, a:b] @ U
+    modal_interiors(groups, load, rows, info["interior"])
     for g in groups.values():
         for name, P in g.items():
             g[name] = 0.5 * (P + P.T)

@@ -364,6 +364,20 @@ class ReducedEar:
         return f if n is None else f[:n]
 
 
+def modal_interiors(groups: dict, load: np.ndarray, rows: np.ndarray, interior: dict) -> None:
+    """Make each shell's interior coordinates modal, in place: ``groups`` (kind → part → matrix
+    on the shells' basis), ``load`` and the output ``rows``, for ``interior`` (shell → its columns
+    (start, stop), :func:`shell_basis`). Only that shell's parts act on them, so every part, and Z
+    for any damping, is diagonal there."""
+    for name, (a, b) in interior.items():
+        U = sla.eigh(groups["stiffness"][name][a:b, a:b], groups["mass"][name][a:b, a:b])[1]
+        for P in (P for g in groups.values() for P in g.values()):
+            P[:, a:b] = P[:, a:b] @ U
+            P[a:b, :] = U.T @ P[a:b, :]
+        load[a:b] = U.T @ load[a:b]
+        rows[:, a:b] = rows[:, a:b] @ U
+
+
 def reduced_ear(
     model,
     materials: Materials | None = None,
@@ -424,15 +438,7 @@ def reduced_ear(
         for g in ("stiffness", "mass", "dashpots")
     }
     load, rows = V.T @ level1.load, level1.restrict(output_rows(model)) @ V
-    # each shell's interior coordinates made modal: only that shell's parts act on them, so every
-    # part, and Z for any damping, is diagonal there (checked below)
-    for name, (a, b) in info["interior"].items():
-        U = sla.eigh(groups["stiffness"][name][a:b, a:b], groups["mass"][name][a:b, a:b])[1]
-        for P in (P for g in groups.values() for P in g.values()):
-            P[:, a:b] = P[:, a:b] @ U
-            P[a:b, :] = U.T @ P[a:b, :]
-        load[a:b] = U.T @ load[a:b]
-        rows[:, a:b] = rows[:, a:b] @ U
+    modal_interiors(groups, load, rows, info["interior"])
     asym = 0.0
     for g in groups.values():
         for name, P in g.items():
