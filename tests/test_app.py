@@ -8,6 +8,7 @@ scripts/setup). Without Chromium or Playwright the browser tests skip, saying wh
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import os
@@ -192,6 +193,40 @@ def _children(pid: int) -> list[int]:
     return out
 
 
+@contextlib.contextmanager
+def serving_app(env: dict):
+    """``isj app --no-browser`` on 127.0.0.1 at a free port with ``env``: yields (url, process),
+    and stops the server afterwards."""
+    port = _free_port()
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "isj", "app", "--no-browser", "--port", str(port)],
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
+    try:
+        line = proc.stdout.readline()
+        assert line.startswith("isj app: serving on http://127.0.0.1:"), line
+        yield f"http://127.0.0.1:{port}/", proc
+    finally:
+        proc.terminate()
+        proc.wait(20)
+
+
+@contextlib.contextmanager
+def chromium():
+    """Debian's Chromium, headless, through Playwright."""
+    from playwright.sync_api import sync_playwright
+
+    with sync_playwright() as pw:
+        b = pw.chromium.launch(executable_path=CHROMIUM, headless=True)
+        try:
+            yield b
+        finally:
+            b.close()
+
+
 @pytest.fixture(scope="module")
 def app_server(tmp_path_factory):
     """``isj app --no-browser`` on 127.0.0.1 at a free port, with private caches; yields (url, process)."""
@@ -201,30 +236,15 @@ def app_server(tmp_path_factory):
         "playwright.sync_api", reason="playwright is not installed (pip install -e '.[test]')"
     )
     tmp = tmp_path_factory.mktemp("app")
-    port = _free_port()
     env = dict(os.environ, HOME=str(tmp / "home"), ISJ_FE_CACHE_DIR=str(tmp / "fe"))
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "isj", "app", "--no-browser", "--port", str(port)],
-        env=env,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-    )
-    line = proc.stdout.readline()
-    assert line.startswith("isj app: serving on http://127.0.0.1:"), line
-    yield f"http://127.0.0.1:{port}/", proc
-    proc.terminate()
-    proc.wait(20)
+    with serving_app(env) as served:
+        yield served
 
 
 @pytest.fixture(scope="module")
 def browser(app_server):
-    from playwright.sync_api import sync_playwright
-
-    with sync_playwright() as pw:
-        b = pw.chromium.launch(executable_path=CHROMIUM, headless=True)
+    with chromium() as b:
         yield b
-        b.close()
 
 
 def _open(browser, url):

@@ -22,14 +22,12 @@ import fcntl
 import json
 import math
 import os
-import subprocess
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 import pytest
-from test_app import CHROMIUM, _children, _free_port, _open, lumped_solve_json, shown
+from test_app import CHROMIUM, _children, _open, chromium, lumped_solve_json, serving_app, shown
 
 from isj.app import state
 from isj.errors import InvalidParameter
@@ -57,29 +55,14 @@ def server(tmp_path_factory):
         ISJ_FE_CACHE_DIR=str(tmp / "fe"),
         ISJ_CACHE_DIR=str(tmp / "cache"),
     )
-    port = _free_port()
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "isj", "app", "--no-browser", "--port", str(port)],
-        env=env,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-    )
-    line = proc.stdout.readline()
-    assert line.startswith("isj app: serving on http://127.0.0.1:"), line
-    yield f"http://127.0.0.1:{port}/", proc, tmp
-    proc.terminate()
-    proc.wait(20)
+    with serving_app(env) as (url, proc):
+        yield url, proc, tmp
 
 
 @pytest.fixture(scope="module")
 def browser(server):
-    from playwright.sync_api import sync_playwright
-
-    with sync_playwright() as pw:
-        b = pw.chromium.launch(executable_path=CHROMIUM, headless=True)
+    with chromium() as b:
         yield b
-        b.close()
 
 
 @pytest.fixture(scope="module")
