@@ -8,6 +8,9 @@ header lists which of them this machine has, and the summary which were skipped.
 
 import importlib.util
 import json
+import os
+import subprocess
+import sys
 
 import pytest
 
@@ -54,7 +57,7 @@ def pytest_terminal_summary(terminalreporter):
 
 #: Fixtures so expensive that every test using one belongs to the slow tier: the first user
 #: pays their cost, and the fast tier must not depend on which test that is.
-SLOW_FIXTURES = frozenset({"report"})
+SLOW_FIXTURES = frozenset({"report", "cold_cli_report", "coarse_fast_ear"})
 
 
 def pytest_collection_modifyitems(config, items):
@@ -79,6 +82,23 @@ def coarse_model():
     from isj.fem.model import PedicleJointModel
 
     return PedicleJointModel(order=2, resolution=0.35)
+
+
+@pytest.fixture(scope="session")
+def coarse_ear(coarse_model):
+    """The default FE ear with :func:`coarse_model` as its joint."""
+    from isj.fem.ear.middle_ear import MiddleEarModel
+
+    return MiddleEarModel(joint=coarse_model)
+
+
+@pytest.fixture(scope="session")
+def coarse_fast_ear(coarse_ear):
+    """The fast ear of :func:`coarse_ear` with the default settings, built once for the session
+    (tests/test_fast_ear.py checks it against the FE ear, tests/test_uq.py samples it)."""
+    from isj.fem.ear.fast_ear import build_fast_ear
+
+    return build_fast_ear(coarse_ear)
 
 
 # ---- one coarse report, shared by tests/test_report.py and tests/test_cache_keys.py ----------------
@@ -157,3 +177,55 @@ def report(tmp_path_factory):
         "first_bytes": first_bytes,
         "pdf_after_interrupt": pdf_after_interrupt,
     }
+
+
+# ---- one small report in a fresh process, shared by tests/test_determinism.py and test_reliability.py
+
+#: As :data:`COARSE_REPORT`, smaller still: every step runs, in about half a minute.
+SMALL_REPORT = {
+    "mesh": {"order": 2, "resolution": 0.35},
+    "trends": {"moduli": ["gap_e_pa"], "n_lumped": 5, "fe_points": 1},
+    "convergence": {"orders": [2], "directions": ["y"]},
+    "calibration": {"check_samples": 1, "seed": 7},
+    "sweep": {"n_freq": 10, "fe_checks": 1, "n_modes": 3},
+    # one case: its FE reduction costs less than building the fast ear (the coarse report has it)
+    "transmission": {
+        "n_freq": 10,
+        "cases": ["p12"],
+        "fe_checks": 1,
+        "sliding_cases": ["p12"],
+        "cases_from": "fe",
+    },
+    "sliding": {"joints": ["bonded", "sliding"]},
+    "guard": {"dense_samples": 64, "fe_checks": 1},
+    "uq": {"samples": 2000, "sobol_samples": 64, "bootstrap": 10, "transmission_samples": 0},
+}
+
+
+def cache_env(folder) -> dict:
+    """The environment of a run whose mesh and FE caches are ``folder/meshes`` and ``folder/fe``."""
+    return dict(os.environ, ISJ_CACHE_DIR=str(folder / "meshes"), ISJ_FE_CACHE_DIR=str(folder / "fe"))
+
+
+@pytest.fixture(scope="session")
+def cold_cli_report(tmp_path_factory):
+    """:data:`SMALL_REPORT` made once by ``isj report`` in a fresh process, with empty caches.
+
+    The uninterrupted, cold reference that the determinism and the kill-and-resume tests
+    compare their runs with, bit for bit. Returns ``case`` (its TOML: every run compared with
+    it reads the same file), ``dir`` (the output folder) and ``caches`` (the folder that holds
+    its ``meshes`` and ``fe`` caches; copy them before use, other tests read them).
+    """
+    tmp = tmp_path_factory.mktemp("cold-cli-report")
+    case = tmp / "case.toml"
+    case.write_text(report_toml(SMALL_REPORT))
+    out = tmp / "out"
+    run = subprocess.run(
+        [sys.executable, "-m", "isj", "report", "--config", str(case), "--out", str(out), "-q"],
+        env=cache_env(tmp / "caches"),
+        capture_output=True,
+        text=True,
+        timeout=3600,
+    )
+    assert run.returncode == 0, f"exit {run.returncode}: {run.stderr[-3000:]}"
+    return {"case": case, "dir": out, "caches": tmp / "caches"}

@@ -8,6 +8,7 @@ the report's data files.
 
 import json
 import os
+import shutil
 import subprocess
 import sys
 import textwrap
@@ -15,19 +16,6 @@ import textwrap
 import pytest
 
 pytestmark = pytest.mark.slow  # runs in fresh processes, reports included
-
-# as tests/test_report.py's coarse report, smaller still: every step runs, in ~30 s
-COARSE = {
-    "mesh": {"order": 2, "resolution": 0.35},
-    "trends": {"moduli": ["gap_e_pa"], "n_lumped": 5, "fe_points": 1},
-    "convergence": {"orders": [2], "directions": ["y"]},
-    "calibration": {"check_samples": 1, "seed": 7},
-    "sweep": {"n_freq": 10, "fe_checks": 1, "n_modes": 3},
-    "transmission": {"n_freq": 10, "cases": ["p12"], "fe_checks": 1, "sliding_cases": ["p12"]},
-    "sliding": {"joints": ["bonded", "sliding"]},
-    "guard": {"dense_samples": 64, "fe_checks": 1},
-    "uq": {"samples": 2000, "sobol_samples": 64, "bootstrap": 10},
-}
 
 _SOLVE = textwrap.dedent(
     """
@@ -109,17 +97,11 @@ def test_repeated_modes_are_identical(tmp_path):
 
 
 @pytest.mark.slow
-def test_cold_warm_and_resumed_reports_give_the_same_data(tmp_path):
-    case = tmp_path / "case.toml"
-    case.write_text(
-        "".join(
-            f"[{section}]\n" + "".join(f"{k} = {json.dumps(v)}\n" for k, v in values.items())
-            for section, values in COARSE.items()
-        )
-    )
-    # cold: empty caches
-    _report(case, tmp_path / "cold", _env(tmp_path, "a"))
-    # warm meshes, cold results: every step recomputed with meshes from the cache
+def test_cold_warm_and_resumed_reports_give_the_same_data(tmp_path, cold_cli_report):
+    # cold: empty caches (tests/conftest.py's small report, shared with tests/test_reliability.py)
+    cold_dir, case = cold_cli_report["dir"], cold_cli_report["case"]
+    # warm meshes, cold results: every step recomputed with meshes from the cold run's cache
+    shutil.copytree(cold_cli_report["caches"] / "meshes", tmp_path / "a-meshes")
     warm_env = _env(tmp_path, "a") | {"ISJ_FE_CACHE_DIR": str(tmp_path / "b-fe")}
     _report(case, tmp_path / "warm", warm_env)
     # interrupted, then resumed in a new process at the first unfinished step
@@ -132,7 +114,7 @@ def test_cold_warm_and_resumed_reports_give_the_same_data(tmp_path):
     run = json.loads((tmp_path / "resumed" / "run.json").read_text())
     assert run["cached_steps"] == ["model", "cases", "trends", "convergence", "calibration"]
 
-    cold = _data(tmp_path / "cold")
+    cold = _data(cold_dir)
     assert len(cold) >= 7
     for name in ("warm", "resumed"):
         other = _data(tmp_path / name)
@@ -140,7 +122,7 @@ def test_cold_warm_and_resumed_reports_give_the_same_data(tmp_path):
         differ = [f for f in cold if cold[f] != other[f]]
         assert not differ, f"{name} differs from cold in {differ}"
     # the PDF too, unless the pages' date or git revision changed between the runs
-    cold_run = json.loads((tmp_path / "cold" / "run.json").read_text())
+    cold_run = json.loads((cold_dir / "run.json").read_text())
     if cold_run["provenance"] == run["provenance"]:
-        pdf = [(tmp_path / n / "report.pdf").read_bytes() for n in ("cold", "resumed")]
+        pdf = [(d / "report.pdf").read_bytes() for d in (cold_dir, tmp_path / "resumed")]
         assert pdf[0] == pdf[1]

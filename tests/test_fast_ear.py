@@ -38,13 +38,13 @@ def _db_deg(r):
 
 
 @pytest.fixture(scope="module")
-def ear(coarse_model):
-    return MiddleEarModel(joint=coarse_model)
+def ear(coarse_ear):
+    return coarse_ear
 
 
 @pytest.fixture(scope="module")
-def fast(ear):
-    return build_fast_ear(ear)
+def fast(coarse_fast_ear):
+    return coarse_fast_ear  # build_fast_ear(ear), shared with tests/test_uq.py (tests/conftest.py)
 
 
 @pytest.fixture(scope="module")

@@ -13,6 +13,7 @@ import textwrap
 from pathlib import Path
 
 import pytest
+from conftest import SMALL_REPORT
 from isj.fem import solvers
 
 from isj.errors import InvalidParameter
@@ -165,19 +166,8 @@ def test_whole_ear_takes_its_joint_length_from_a_joint_of_another_stack_height()
     assert lumped.shape == (1, 4) and np.isfinite(lumped).all()
 
 
-# a coarse report (as tests/test_report.py's) with another stack height
-_COARSE_REPORT = {
-    "geometry": {"gap_thickness_m": 40e-6},
-    "mesh": {"order": 2, "resolution": 0.35},
-    "trends": {"moduli": ["gap_e_pa"], "n_lumped": 5, "fe_points": 1},
-    "convergence": {"orders": [2], "directions": ["y"]},
-    "calibration": {"check_samples": 1, "seed": 7},
-    "sweep": {"n_freq": 10, "fe_checks": 1, "n_modes": 3},
-    "transmission": {"n_freq": 10, "cases": ["p12"], "fe_checks": 1, "sliding_cases": ["p12"]},
-    "sliding": {"joints": ["bonded", "sliding"]},
-    "guard": {"dense_samples": 64, "fe_checks": 1},
-    "uq": {"samples": 2000, "sobol_samples": 64, "bootstrap": 10},
-}
+# the small report of tests/conftest.py with another stack height
+_COARSE_REPORT = {"geometry": {"gap_thickness_m": 40e-6}} | SMALL_REPORT
 
 
 def _config(tmp_path, extra: dict | None = None):
@@ -692,25 +682,19 @@ def _report_differences(a, b) -> list[str]:
 
 
 @pytest.mark.slow
-def test_a_killed_report_resumes_redoes_nothing_and_damaged_ear_entries_are_recomputed(tmp_path):
+def test_a_killed_report_resumes_redoes_nothing_and_damaged_ear_entries_are_recomputed(
+    tmp_path, cold_cli_report
+):
     import json
     import signal
 
-    from conftest import COARSE_REPORT, report_toml
-
-    case = tmp_path / "case.toml"
-    case.write_text(report_toml(COARSE_REPORT))
+    # the uninterrupted run: tests/conftest.py's small report, cold, in a fresh process
+    ref, case = cold_cli_report["dir"], cold_cli_report["case"]
 
     def env(name):
         return dict(
             os.environ, ISJ_FE_CACHE_DIR=str(tmp_path / name / "fe"), ISJ_CACHE_DIR=str(tmp_path / name / "m")
         )
-
-    # the uninterrupted run
-    ref = _isj_run(
-        ["report", "--config", str(case), "--out", str(tmp_path / "ref"), "-q"], env("a"), timeout=3600
-    )
-    assert ref.returncode == 0, ref.stderr[-3000:]
 
     # killed (SIGKILL) once four steps are stored
     out, fe = tmp_path / "R", tmp_path / "b" / "fe"
@@ -735,7 +719,7 @@ def test_a_killed_report_resumes_redoes_nothing_and_damaged_ear_entries_are_reco
     assert {k: after.get(k) for k in before} == before  # nothing finished was redone
     assert finished <= set(json.loads((out / "run.json").read_text())["cached_steps"])
     assert not list(tmp_path.glob(".R.*"))  # the killed run's staging folder is gone
-    assert _report_differences(tmp_path / "ref", out) == []  # bit for bit
+    assert _report_differences(ref, out) == []  # bit for bit
 
     # damage: the FE-ear entries (reductions, drum modes) and every mesh entry, three ways
     damaged = sorted(
@@ -756,7 +740,7 @@ def test_a_killed_report_resumes_redoes_nothing_and_damaged_ear_entries_are_reco
     assert "deleted, recomputing" in third.stderr
     cached = set(json.loads((out / "run.json").read_text())["cached_steps"])
     assert not cached & {p.name.split("-")[0] for p in damaged} and "model" in cached
-    assert _report_differences(tmp_path / "ref", out) == []
+    assert _report_differences(ref, out) == []
     # every damaged step entry was read, so a folder standing where one belongs is gone; a mesh
     # entry is read only by a step that is recomputed, so a damaged one may wait for its next use
     assert not any(p.is_dir() for p in damaged)

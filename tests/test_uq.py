@@ -517,17 +517,16 @@ def test_transmission_cli_json_csv_and_switch(fake_fast_ear, capsys, tmp_path):
 
 
 @pytest.mark.slow
-def test_transmission_fixed_design_equals_the_fast_ear(coarse_model):
+def test_transmission_fixed_design_equals_the_fast_ear(coarse_fast_ear):
     """Every draw of one design gives the fast ear's single-design ΔH_V (isj ear sweep's summary,
     :func:`isj.responses.delta_columns`) at 1, 5, 10 kHz and its largest |ΔH_V| to 10 kHz;
     and a Monte Carlo draw's outputs equal that design's own single-design values."""
-    from isj.fem.ear.fast_ear import build_fast_ear, fast_ear_sweep
-    from isj.fem.ear.middle_ear import MiddleEarModel
+    from isj.fem.ear.fast_ear import fast_ear_sweep
 
     from isj.design import Materials
     from isj.studies.uq import TRANSMISSION_FREQ_HZ, TransmissionEvaluator
 
-    ear = build_fast_ear(MiddleEarModel(joint=coarse_model))
+    ear = coarse_fast_ear  # build_fast_ear(MiddleEarModel(joint=coarse_model)), shared (tests/conftest.py)
     ev = TransmissionEvaluator(ear, block=7)  # blocks of 7: the blocking does not change a value
     base = Materials()
     one = fast_ear_sweep(TRANSMISSION_FREQ_HZ, base, ear=ear)["summary"]
