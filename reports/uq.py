@@ -177,10 +177,12 @@ def transmission_evaluator(ctx):
     from isj.fem.ear.fast_ear import fast_ear
     from isj.fem.ear.middle_ear import MiddleEarModel
 
-    from isj.studies.uq import TransmissionEvaluator
+    from isj.studies.uq import TRANSMISSION_FREQ_HZ, TransmissionEvaluator
 
+    # the transmission step's fast ear when its band holds the evaluator's grid, else one to 20 kHz
+    fmax_hz = cfg.transmission.fmax_hz if cfg.transmission.fmax_hz >= TRANSMISSION_FREQ_HZ[-1] else 20e3
     joint, _ = shared_model(ctx.settings)
-    fast = fast_ear(MiddleEarModel(joint=joint), cfg.ear, fmax_hz=cfg.transmission.fmax_hz)
+    fast = fast_ear(MiddleEarModel(joint=joint), cfg.ear, fmax_hz=fmax_hz)
     return TransmissionEvaluator(fast, damping=cfg.sweep.damping_model())
 
 
