@@ -126,6 +126,18 @@ class Session:
         return row(s, t)
 
     def _build(self) -> None:
+        """The page: its controls and status lines, the four tabs' plots, the export, the layout."""
+        self._build_status()
+        self._build_chain_plots()
+        self._build_ear_plots()
+        self._build_map()
+        self._build_uncertainty()
+        self._build_export()
+        self._layout()
+
+    def _build_status(self) -> None:
+        """The fields' holders, the message and number lines, the surrogate and FE controls, the
+        joint buttons and the reset."""
         self.sliders: dict[str, Slider] = {}
         self.texts: dict[str, TextInput] = {}
         self.message = Div(text='<span id="message"></span>', width=700, height=22)
@@ -159,10 +171,11 @@ class Session:
             options=["defaults", *(c.name for c in THESIS_CASES)],
             width=150,
         )
-        reset = Button(label="Reset", width=80)
-        reset.on_click(self.on_reset)
+        self.reset_button = Button(label="Reset", width=80)
+        self.reset_button.on_click(self.on_reset)
 
-        # plots
+    def _build_chain_plots(self) -> None:
+        """The isolated chain's α and β over frequency (lumped): magnitude and phase."""
         self.bode_src = ColumnDataSource(dict(f=[], a=[], b=[], pa=[], pb=[]))
         self.bode = figure(
             title="isolated chain (lumped)",
@@ -187,6 +200,8 @@ class Session:
         self.bode_phase.line("f", "pa", source=self.bode_src, color="#1f77b4", line_width=2)
         self.bode_phase.line("f", "pb", source=self.bode_src, color="#d62728", line_width=2)
 
+    def _build_ear_plots(self) -> None:
+        """The whole ear's H_V and ΔH_V over frequency, with the band the model holds."""
         self.ear_src = ColumnDataSource(dict(f=[], hv=[], ddb=[], ddeg=[]))
         self.ear = figure(
             x_axis_type="log",
@@ -213,6 +228,8 @@ class Session:
         self.ear_delta.add_layout(self.ear_delta_band)
         self.ear_note = Div(width=640, height=60)
 
+    def _build_map(self) -> None:
+        """The map of log10 β/α over two moduli, with the design marked."""
         self.map_x = Select(title="map x", value="pedicle_e_pa", options=list(state.MODULI), width=150)
         self.map_y = Select(title="map y", value="gap_e_pa", options=list(state.MODULI), width=150)
         self.map_x.css_classes, self.map_y.css_classes = ["isj-map-x"], ["isj-map-y"]
@@ -229,6 +246,8 @@ class Session:
         self.map.add_layout(ColorBar(color_mapper=self.map_mapper, width=12), "right")
         self.map_info = Div(width=560, height=40, text='<span id="map"></span>')
 
+    def _build_uncertainty(self) -> None:
+        """The moduli's distributions and the histogram of log10 β/α."""
         self.uq_kinds = {
             k: Select(
                 title=k,
@@ -249,10 +268,11 @@ class Session:
         self.uq.add_layout(BoxAnnotation(right=0.0, fill_alpha=0.1, fill_color="red"))
         self.uq_info = Div(width=560, height=40, text='<span id="uq"></span>')
 
-        # export
+    def _build_export(self) -> None:
+        """The case-file download and the plots' format."""
         self.case_src = ColumnDataSource(dict(text=[""]))
-        export = Button(label="Download case file (TOML)", width=210)
-        export.js_on_click(
+        self.export_button = Button(label="Download case file (TOML)", width=210)
+        self.export_button.js_on_click(
             CustomJS(
                 args=dict(src=self.case_src),
                 code="""
@@ -267,6 +287,8 @@ class Session:
         self.plot_format = Select(title="plots save as", value="png", options=["png", "svg"], width=120)
         self.plot_format.on_change("value", lambda a, o, n: self.on_format(n))
 
+    def _layout(self) -> None:
+        """The controls column beside the outputs and the tabs, added to the document."""
         moduli = column(
             Div(text="<b>Moduli</b> (log sliders over the calibrated domain)"),
             *(self._field(k) for k in state.MODULI),
@@ -279,7 +301,7 @@ class Session:
             Div(text="<b>Joint and load</b>"),
             self.joint,
             self._field("pressure_pa"),
-            row(self.reset_select, reset),
+            row(self.reset_select, self.reset_button),
         )
         controls = column(moduli, load, geom, width=370)
         self.tabs = tabs = Tabs(
@@ -296,7 +318,9 @@ class Session:
                         self.uq,
                     ),
                 ),
-                TabPanel(title="Export", child=column(row(export, self.plot_format), self.case_div)),
+                TabPanel(
+                    title="Export", child=column(row(self.export_button, self.plot_format), self.case_div)
+                ),
             ]
         )
         outputs = column(
