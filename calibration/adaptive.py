@@ -109,6 +109,14 @@ def _round_summary(k: int, n_train: int, guard: Guard) -> dict:
     }
 
 
+def _round_line(row: dict) -> str:
+    """The log line of a round's summary (:func:`_round_summary`)."""
+    return (
+        f"round {row['round']}: {row['n_train']} training designs; worst certified error "
+        f"{100 * row['max_certified_error']:.2f} %, {row['n_fail']} fail"
+    )
+
+
 def _refit(records, geometry, factors, norm):
     """Refit from ``factors`` (a factor at 0, a term switched off, starts at the fit's floor)."""
     return fit_factors(records, geometry, x0=np.maximum(factors, np.exp(-LOG_BOUND)), norm=norm)
@@ -174,6 +182,79 @@ def _best_round(history: list[dict]) -> int:
     )
 
 
+def _stopping_rules(per_round, max_rounds, patience, min_gain) -> tuple[int, int, int]:
+    """``per_round``, ``max_rounds`` and ``patience`` as checked ints; ``min_gain`` checked in [0, 1)."""
+    per_round = _check("per_round", per_round, 1, 1000)
+    max_rounds = _check("max_rounds", max_rounds, 0, 1000)
+    patience = _check("patience", patience, 1, 1000)
+    if not (isinstance(min_gain, float | int) and 0 <= min_gain < 1):
+        raise InvalidParameter(f"min_gain = {min_gain!r}: must lie in [0, 1)")
+    return per_round, max_rounds, patience
+
+
+def _starting_fit(calibration, records, geometry, refit_first: bool, norm) -> tuple[np.ndarray, int | None]:
+    """Round 0's factors and IPOPT iterations: the calibration's, or a refit on ``records``."""
+    factors = np.asarray(calibration.factor_array(), dtype=float)
+    iterations = calibration.training.get("ipopt_iterations")
+    if refit_first:
+        fit = _refit(records, geometry, factors, norm)
+        factors, iterations = fit.factors, fit.iterations
+    return factors, iterations
+
+
+def _guard_factors(calibration, factors: np.ndarray, oracle, **guard_options) -> Guard:
+    """:func:`~isj.calibration.guard.run_guard` of the calibration with ``factors`` in place of its own."""
+    cal = dataclasses.replace(calibration, factors=dict(zip(FACTOR_NAMES, map(float, factors), strict=True)))
+    return run_guard(cal, oracle, {}, **guard_options)
+
+
+def _stop_reason(
+    history: list[dict], tolerance: float, max_rounds: int, patience: int, min_gain: float
+) -> str | None:
+    """Why the loop ends after the last round in ``history`` (:attr:`AdaptiveResult.stop`); None: go on."""
+    k = len(history) - 1
+    if history[k]["max_certified_error"] <= tolerance:
+        return "reached"
+    if k >= patience and _stalled(history, k, patience, min_gain):
+        return "no progress"
+    if k == max_rounds:
+        return "max rounds"
+    return None
+
+
+def _confirm_worst(
+    guard: Guard, seen: set, per_round: int, domain, confirm, pressure_pa: float, round_: int
+) -> tuple[list[dict], list[dict]]:
+    """FE at the worst designs not trained on yet: their records and their rows of ``added``.
+
+    ``seen`` (sorted design items of every training design) gains the new designs.
+    """
+    picks, designs = _new_picks(guard, seen, per_round, domain)
+    new = confirm(designs)
+    if len(new) != len(designs):
+        raise ValueError(f"confirm returned {len(new)} records for {len(designs)} designs")
+    ok = _confirmed(guard, picks, new, pressure_pa)
+    seen.update(tuple(sorted(d.items())) for d in designs)
+    return list(new), _added_rows(round_, guard, picks, designs, ok)
+
+
+def _best_result(history, fits, guards, records, added, tolerance: float, stop: str) -> AdaptiveResult:
+    """The :class:`AdaptiveResult` of the best round (:func:`_best_round`) of the rounds run."""
+    b = _best_round(history)
+    n_train = history[b]["n_train"]
+    return AdaptiveResult(
+        factors=fits[b][0],
+        iterations=fits[b][1],
+        records=records[:n_train],  # the best round's training set
+        added=[a for a in added if a["round"] <= b],
+        history=history,
+        best_round=b,
+        reached=history[b]["max_certified_error"] <= tolerance,
+        stop=stop,
+        guard=guards[b],
+    )
+
+
 def adaptive_fit(
     calibration,
     records: Sequence[dict],
@@ -220,74 +301,35 @@ def adaptive_fit(
     log : callable, optional
         Called with one line per round.
     """
-    per_round = _check("per_round", per_round, 1, 1000)
-    max_rounds = _check("max_rounds", max_rounds, 0, 1000)
-    patience = _check("patience", patience, 1, 1000)
-    if not (isinstance(min_gain, float | int) and 0 <= min_gain < 1):
-        raise InvalidParameter(f"min_gain = {min_gain!r}: must lie in [0, 1)")
+    per_round, max_rounds, patience = _stopping_rules(per_round, max_rounds, patience, min_gain)
     records = list(records)
-    factors = np.asarray(calibration.factor_array(), dtype=float)
-    iterations = calibration.training.get("ipopt_iterations")
-    if refit_first:
-        fit = _refit(records, geometry, factors, norm)
-        factors, iterations = fit.factors, fit.iterations
+    factors, iterations = _starting_fit(calibration, records, geometry, refit_first, norm)
+    guard_options = {
+        "tolerance": tolerance,
+        "n_dense": n_dense,
+        "seed": seed,
+        "pressure_pa": pressure_pa,
+        "geometry": geometry,
+    }
     history, added, guards, fits = [], [], [], []
     seen = {tuple(sorted(r["design"].items())) for r in records}
-    stop = "max rounds"
     for k in range(max_rounds + 1):
-        cal = dataclasses.replace(
-            calibration, factors=dict(zip(FACTOR_NAMES, map(float, factors), strict=True))
-        )
-        guard = run_guard(
-            cal,
-            oracle,
-            {},
-            tolerance=tolerance,
-            n_dense=n_dense,
-            seed=seed,
-            pressure_pa=pressure_pa,
-            geometry=geometry,
-        )
+        guard = _guard_factors(calibration, factors, oracle, **guard_options)
         row = _round_summary(k, len(records), guard)
         history.append(row)
         guards.append(guard)
         fits.append((factors, iterations))
         if log:
-            log(
-                f"round {k}: {len(records)} training designs; worst certified error "
-                f"{100 * row['max_certified_error']:.2f} %, {row['n_fail']} fail"
-            )
-        if row["max_certified_error"] <= tolerance:
-            stop = "reached"
+            log(_round_line(row))
+        stop = _stop_reason(history, tolerance, max_rounds, patience, min_gain)
+        if stop is not None:
             break
-        if k >= patience and _stalled(history, k, patience, min_gain):
-            stop = "no progress"
-            break
-        if k == max_rounds:
-            break
-        picks, designs = _new_picks(guard, seen, per_round, calibration.domain)
-        new = confirm(designs)
-        if len(new) != len(designs):
-            raise ValueError(f"confirm returned {len(new)} records for {len(designs)} designs")
-        ok = _confirmed(guard, picks, new, pressure_pa)
-        seen.update(tuple(sorted(d.items())) for d in designs)
-        added += _added_rows(k + 1, guard, picks, designs, ok)
-        records += list(new)
+        new, rows = _confirm_worst(guard, seen, per_round, calibration.domain, confirm, pressure_pa, k + 1)
+        added += rows
+        records += new
         fit = _refit(records, geometry, factors, norm)
         factors, iterations = fit.factors, fit.iterations
-    b = _best_round(history)
-    n_train = history[b]["n_train"]
-    return AdaptiveResult(
-        factors=fits[b][0],
-        iterations=fits[b][1],
-        records=records[:n_train],  # the best round's training set
-        added=[a for a in added if a["round"] <= b],
-        history=history,
-        best_round=b,
-        reached=history[b]["max_certified_error"] <= tolerance,
-        stop=stop,
-        guard=guards[b],
-    )
+    return _best_result(history, fits, guards, records, added, tolerance, stop)
 
 
 def fe_confirm(

@@ -274,6 +274,86 @@ def _check_curved(m, path) -> None:
         )
 
 
+def _check_groups(m, groups: dict, path) -> None:
+    """Refuse a mesh without a region or required face group, or with non-tetrahedral volumes."""
+    wanted = (*REGIONS, *REQUIRED_FACES)
+    missing = [n for n in wanted if n not in groups]
+    if missing:
+        found = ", ".join(sorted(groups)) or "none"
+        raise InvalidMesh(
+            f"{path}: no group named {missing[0]!r} (needed: {', '.join(wanted)}; found: {found})"
+        )
+    for block in m.cells:
+        if block.type in OTHER_VOLUME_TYPES:
+            raise InvalidMesh(
+                f"{path}: holds {block.type} cells; only tetra and tetra10 volumes are accepted"
+            )
+
+
+def _region_tets(m, groups: dict, path) -> tuple[np.ndarray, np.ndarray]:
+    """Corner connectivity (file node ids) of every tetrahedron and its region index (int8).
+
+    Every tetrahedron must be in exactly one region group.
+    """
+    tet_blocks = [b for b, block in enumerate(m.cells) if block.type in TET_TYPES]
+    owner = {b: np.full(len(m.cells[b].data), -1, dtype=np.int64) for b in tet_blocks}
+    for r, name in enumerate(REGIONS):
+        for b, idx in groups[name].items():
+            if b not in owner:
+                raise InvalidMesh(
+                    f"{path}: group {name!r} holds {m.cells[b].type} cells; a region needs tetra"
+                )
+            twice = idx[owner[b][idx] >= 0]
+            if twice.size:
+                other = REGIONS[owner[b][twice[0]]]
+                raise InvalidMesh(f"{path}: a tetrahedron is in two region groups, {other!r} and {name!r}")
+            owner[b][idx] = r
+    for b in tet_blocks:
+        if (owner[b] < 0).any():
+            n = int((owner[b] < 0).sum())
+            raise InvalidMesh(
+                f"{path}: {n} tetrahedra belong to none of the region groups {', '.join(REGIONS)}"
+            )
+    tets = np.concatenate([np.asarray(m.cells[b].data, dtype=np.int64)[:, :4] for b in tet_blocks])
+    region = np.concatenate([owner[b] for b in tet_blocks]).astype(np.int8)
+    return tets, region
+
+
+def _used_nodes(m, tets, faces: dict, path, order: int, unit: str, max_bytes):
+    """Points (m), tets and faces on the nodes the tetrahedra use, numbered from 0 in file order.
+
+    The model's memory is checked on those nodes before anything large is built; a face on a
+    node no tetrahedron uses, a point without three coordinates or one that is not finite is refused.
+    """
+    used = np.unique(tets)
+    check_size(path, used.size, len(tets), order, max_bytes)  # before anything large is built
+    compact = np.full(len(m.points), -1, dtype=np.int64)
+    compact[used] = np.arange(used.size)
+    tets = compact[tets]
+    faces = dict(faces)
+    for name, tri in faces.items():
+        faces[name] = compact[tri]
+        if (faces[name] < 0).any():
+            raise InvalidMesh(f"{path}: face group {name!r} uses nodes that no tetrahedron uses")
+    points = np.asarray(m.points, dtype=np.float64)[used, :3] * UNITS_M[unit]
+    if points.shape[1] != 3:
+        raise InvalidMesh(f"{path}: points have {points.shape[1]} coordinates; a volume mesh needs 3")
+    check_finite_points(path, points, used)
+    return points, tets, faces
+
+
+def _cut_capsule_free(path, points, tets, region, faces: dict, topo):
+    """Cut the ``capsule_free`` interface open; ``faces`` gains ``capsule_bonded``; (points, tets)."""
+    bonded = topo.capsule_interface_without(faces["capsule_free"])
+    if not len(bonded):
+        raise InvalidMesh(
+            f"{path}: face group 'capsule_free' covers all of the capsule's faces on other regions; "
+            "cut open, the capsule would touch nothing"
+        )
+    faces["capsule_bonded"] = bonded
+    return _cut_free_interface(points, tets, region, faces, REGIONS)
+
+
 def read_mesh(path, order: int = 2, unit: str = "m", max_bytes: int | None = None) -> TetMesh:
     """Read, check and cut a user mesh (docs/model.md §2.11).
 
@@ -312,58 +392,13 @@ def read_mesh(path, order: int = 2, unit: str = "m", max_bytes: int | None = Non
     _precheck_size(path, order, max_bytes)
     m = _read_meshio(path)
     groups = _groups(m)
-    wanted = (*REGIONS, *REQUIRED_FACES)
-    missing = [n for n in wanted if n not in groups]
-    if missing:
-        found = ", ".join(sorted(groups)) or "none"
-        raise InvalidMesh(
-            f"{path}: no group named {missing[0]!r} (needed: {', '.join(wanted)}; found: {found})"
-        )
-    for block in m.cells:
-        if block.type in OTHER_VOLUME_TYPES:
-            raise InvalidMesh(
-                f"{path}: holds {block.type} cells; only tetra and tetra10 volumes are accepted"
-            )
-
-    # every tetrahedron in exactly one region group
-    tet_blocks = [b for b, block in enumerate(m.cells) if block.type in TET_TYPES]
-    owner = {b: np.full(len(m.cells[b].data), -1, dtype=np.int64) for b in tet_blocks}
-    for r, name in enumerate(REGIONS):
-        for b, idx in groups[name].items():
-            if b not in owner:
-                raise InvalidMesh(
-                    f"{path}: group {name!r} holds {m.cells[b].type} cells; a region needs tetra"
-                )
-            twice = idx[owner[b][idx] >= 0]
-            if twice.size:
-                other = REGIONS[owner[b][twice[0]]]
-                raise InvalidMesh(f"{path}: a tetrahedron is in two region groups, {other!r} and {name!r}")
-            owner[b][idx] = r
-    for b in tet_blocks:
-        if (owner[b] < 0).any():
-            n = int((owner[b] < 0).sum())
-            raise InvalidMesh(
-                f"{path}: {n} tetrahedra belong to none of the region groups {', '.join(REGIONS)}"
-            )
-    tets = np.concatenate([np.asarray(m.cells[b].data, dtype=np.int64)[:, :4] for b in tet_blocks])
-    region = np.concatenate([owner[b] for b in tet_blocks]).astype(np.int8)
+    _check_groups(m, groups, path)
+    tets, region = _region_tets(m, groups, path)
     faces = {
         n: _cells(m, groups[n], TRI_TYPES, n, path) for n in (*REQUIRED_FACES, *OPTIONAL_FACES) if n in groups
     }
-
-    used = np.unique(tets)
-    check_size(path, used.size, len(tets), order, max_bytes)  # before anything large is built
-    compact = np.full(len(m.points), -1, dtype=np.int64)
-    compact[used] = np.arange(used.size)
-    tets = compact[tets]
-    for name, tri in faces.items():
-        faces[name] = compact[tri]
-        if (faces[name] < 0).any():
-            raise InvalidMesh(f"{path}: face group {name!r} uses nodes that no tetrahedron uses")
-    points = np.asarray(m.points, dtype=np.float64)[used, :3] * UNITS_M[unit]
-    if points.shape[1] != 3:
-        raise InvalidMesh(f"{path}: points have {points.shape[1]} coordinates; a volume mesh needs 3")
-    check_finite_points(path, points, used)
+    points, tets, faces = _used_nodes(m, tets, faces, path, order, unit, max_bytes)
+    # both warn at stacklevel 3: called from here, the warning names read_mesh's caller
     warn_implausible_size(path, points, unit)
     _check_curved(m, path)
     del m
@@ -375,14 +410,7 @@ def read_mesh(path, order: int = 2, unit: str = "m", max_bytes: int | None = Non
     except MeshError as exc:
         raise InvalidMesh(f"{path}: {exc}") from None
     if "capsule_free" in faces:
-        bonded = topo.capsule_interface_without(faces["capsule_free"])
-        if not len(bonded):
-            raise InvalidMesh(
-                f"{path}: face group 'capsule_free' covers all of the capsule's faces on other regions; "
-                "cut open, the capsule would touch nothing"
-            )
-        faces["capsule_bonded"] = bonded
-        points, tets = _cut_free_interface(points, tets, region, faces, REGIONS)
+        points, tets = _cut_capsule_free(path, points, tets, region, faces, topo)
     return TetMesh(points, tets, region, REGIONS, faces)
 
 

@@ -302,6 +302,69 @@ def _bands(freq: np.ndarray, ok: np.ndarray) -> list[tuple[float, float]]:
     return bands
 
 
+def _model_in_series_unit(series: MeasuredSeries, freq_hz, model_values, model_unit) -> tuple:
+    """The model's frequencies > 0 (Hz, increasing) and its values there in the series' unit."""
+    f = np.atleast_1d(np.asarray(freq_hz, dtype=float))
+    h = np.atleast_1d(np.asarray(model_values))
+    if f.ndim != 1 or h.shape != f.shape:
+        raise InvalidParameter(
+            f"compare: freq_hz {f.shape} and model_values {h.shape} must be 1-D and of one length"
+        )
+    unit = series.unit if model_unit is None else model_unit
+    keep = f > 0
+    f, h = f[keep], h[keep]
+    if unit != series.unit:
+        if (unit, series.unit) == (_VELOCITY, _DISPLACEMENT):
+            h = velocity_to_displacement(f, h)
+        elif (unit, series.unit) == (_DISPLACEMENT, _VELOCITY):
+            h = displacement_to_velocity(f, h)
+        else:
+            raise InvalidParameter(
+                f"compare: cannot compare a model in {unit!r} with {series.name} in {series.unit!r}"
+            )
+    order = np.argsort(f)
+    f, h = f[order], h[order]
+    if f.size and np.any(np.diff(f) <= 0):
+        raise InvalidParameter("compare: model frequencies must be distinct")
+    return f, h
+
+
+def _inside_model_range(series: MeasuredSeries, f: np.ndarray) -> np.ndarray:
+    """Which measured frequencies lie in the model's [f[0], f[-1]] (relative slack 1e-12); at least one."""
+    fm = series.freq_hz
+    inside = (fm >= f[0] * (1 - 1e-12)) & (fm <= f[-1] * (1 + 1e-12))
+    if not np.any(inside):
+        raise InvalidParameter(
+            f"compare: no frequency of {series.name} ({fm.min():g}-{fm.max():g} Hz) lies inside the model's "
+            f"{f[0]:g}-{f[-1]:g} Hz"
+        )
+    return inside
+
+
+def _range_deviation(series: MeasuredSeries, inside, measured, model_mag) -> np.ndarray | None:
+    """dB from the model to the source's stated range (0 inside it); None when it states none."""
+    if series.magnitude_min is None and series.magnitude_max is None:
+        return None
+    lo = series.magnitude_min[inside] if series.magnitude_min is not None else measured
+    hi = series.magnitude_max[inside] if series.magnitude_max is not None else measured
+    below = 20.0 * np.log10(model_mag / lo)
+    above = 20.0 * np.log10(model_mag / hi)
+    return np.where(below < 0, below, np.where(above > 0, above, 0.0))
+
+
+def _phase_deviation(series: MeasuredSeries, inside, f, h, fi) -> np.ndarray | None:
+    """Model minus measured phase (degrees, wrapped to (−180, 180]); None unless both have phases.
+
+    The model's unwrapped phase is interpolated linearly against log frequency.
+    """
+    if series.phase_deg is None or not np.iscomplexobj(h):
+        return None
+    ph = np.unwrap(np.angle(h))
+    model_ph = np.degrees(ph[0] if f.size == 1 else np.interp(np.log(fi), np.log(f), ph))
+    d = model_ph - series.phase_deg[inside]
+    return -((-d + 180.0) % 360.0 - 180.0)  # wrapped to (-180, 180]
+
+
 def compare(series: MeasuredSeries, freq_hz, model_values, model_unit: str | None = None) -> dict:
     """The model's deviation from a measured series, in dB, at the measured frequencies.
 
@@ -336,63 +399,19 @@ def compare(series: MeasuredSeries, freq_hz, model_values, model_unit: str | Non
         Mismatched lengths, a unit that cannot be converted, no measured frequency
         inside the model's range, or a model magnitude that is zero or not finite.
     """
-    f = np.atleast_1d(np.asarray(freq_hz, dtype=float))
-    h = np.atleast_1d(np.asarray(model_values))
-    if f.ndim != 1 or h.shape != f.shape:
-        raise InvalidParameter(
-            f"compare: freq_hz {f.shape} and model_values {h.shape} must be 1-D and of one length"
-        )
-    unit = series.unit if model_unit is None else model_unit
-    keep = f > 0
-    f, h = f[keep], h[keep]
-    if unit != series.unit:
-        if (unit, series.unit) == (_VELOCITY, _DISPLACEMENT):
-            h = velocity_to_displacement(f, h)
-        elif (unit, series.unit) == (_DISPLACEMENT, _VELOCITY):
-            h = displacement_to_velocity(f, h)
-        else:
-            raise InvalidParameter(
-                f"compare: cannot compare a model in {unit!r} with {series.name} in {series.unit!r}"
-            )
-    order = np.argsort(f)
-    f, h = f[order], h[order]
-    if f.size and np.any(np.diff(f) <= 0):
-        raise InvalidParameter("compare: model frequencies must be distinct")
+    f, h = _model_in_series_unit(series, freq_hz, model_values, model_unit)
     mag = np.abs(h)
     if f.size == 0 or not np.all(np.isfinite(mag)) or np.any(mag <= 0):
         raise InvalidParameter("compare: model magnitudes must be finite and > 0 at frequencies > 0")
-    fm = series.freq_hz
-    inside = (fm >= f[0] * (1 - 1e-12)) & (fm <= f[-1] * (1 + 1e-12))
-    if not np.any(inside):
-        raise InvalidParameter(
-            f"compare: no frequency of {series.name} ({fm.min():g}-{fm.max():g} Hz) lies inside the model's "
-            f"{f[0]:g}-{f[-1]:g} Hz"
-        )
-    fi = fm[inside]
-    logf = np.log(f)
+    inside = _inside_model_range(series, f)
+    fi = series.freq_hz[inside]
     if f.size == 1:
         model_mag = np.full(fi.shape, mag[0])
     else:
-        model_mag = np.exp(np.interp(np.log(fi), logf, np.log(mag)))
+        model_mag = np.exp(np.interp(np.log(fi), np.log(f), np.log(mag)))
     measured = series.magnitude[inside]
     dev = 20.0 * np.log10(model_mag / measured)
     absdev = np.abs(dev)
-
-    range_dev = None
-    if series.magnitude_min is not None or series.magnitude_max is not None:
-        lo = series.magnitude_min[inside] if series.magnitude_min is not None else measured
-        hi = series.magnitude_max[inside] if series.magnitude_max is not None else measured
-        below = 20.0 * np.log10(model_mag / lo)
-        above = 20.0 * np.log10(model_mag / hi)
-        range_dev = np.where(below < 0, below, np.where(above > 0, above, 0.0))
-
-    phase_dev = None
-    if series.phase_deg is not None and np.iscomplexobj(h):
-        ph = np.unwrap(np.angle(h))
-        model_ph = np.degrees(ph[0] if f.size == 1 else np.interp(np.log(fi), logf, ph))
-        d = model_ph - series.phase_deg[inside]
-        phase_dev = -((-d + 180.0) % 360.0 - 180.0)  # wrapped to (-180, 180]
-
     return {
         "name": series.name,
         "quantity": series.quantity,
@@ -405,7 +424,7 @@ def compare(series: MeasuredSeries, freq_hz, model_values, model_unit: str | Non
         "median_abs_db": float(np.median(absdev)),
         "bands_3db": _bands(fi, absdev <= 3.0 + _BAND_EPS_DB),
         "bands_6db": _bands(fi, absdev <= 6.0 + _BAND_EPS_DB),
-        "range_deviation_db": range_dev,
-        "phase_deviation_deg": phase_dev,
-        "skipped_freq_hz": fm[~inside],
+        "range_deviation_db": _range_deviation(series, inside, measured, model_mag),
+        "phase_deviation_deg": _phase_deviation(series, inside, f, h, fi),
+        "skipped_freq_hz": series.freq_hz[~inside],
     }

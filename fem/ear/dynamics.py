@@ -357,66 +357,26 @@ def harmonic(
         raise InvalidParameter(f"pressure_pa = {pressure_pa!r} Pa: must be a finite number")
     damping = resolve(damping)
     materials = materials or Materials()
-    g = model.geometry
     names = damping_parts(model)
     warn_rayleigh_band(damping, float(freqs.min()), float(freqs.max()), names)
-    damped = damping.damped(names)
     t0 = time.perf_counter()
     K = model.stiffness(materials, ear_materials)
     M = reduced_mass(model, materials, ear_materials, masses)
     L, C = damping_data(model, damping, materials, ear_materials, masses)
     t1 = time.perf_counter()
-    t2 = time.perf_counter()
     f = model.load_reduced * pressure_pa
-    w = 2 * np.pi * freqs
-    backend = "superlu" if model._solver_name == "superlu" else "auto"
-    # the static solver's ordering is not reused: a shared rigid-joint model crashed (SIGSEGV in
-    # PARDISO) in tests/test_lumped_ear.py after earlier static solves when it was; a fresh analysis
-    perm = None
-    solver = None
-    q = np.zeros((freqs.size, model.n_dofs), dtype=complex)
-    # the static solution (for the umbo's direction) by the same solver, first: the model's own
-    # static PARDISO solver is left alone (mixing it with other PARDISO instances crashed, SIGSEGV,
-    # in tests/test_lumped_ear.py)
-    try:
-        for i, wi in enumerate(np.concatenate([[None], w])):
-            if i == 0:  # the static solution, K alone
-                data = K.data.astype(complex) if damped else K.data
-            elif damped:  # K + iL + iωC − ω²M: complex symmetric
-                data = K.data + 1j * (L + wi * C) - wi**2 * M.data
-            else:  # real symmetric indefinite
-                data = K.data - wi**2 * M.data
-            Z = sp.csr_matrix((data, K.indices, K.indptr), shape=K.shape)
-            if solver is None:
-                make = make_complex_symmetric_solver if damped else make_indefinite_solver
-                solver = make(Z, backend, perm)
-            solver.factor(Z)
-            x = np.ravel(solver.solve(f))
-            if i == 0:
-                static = model.result(np.asarray(model.T @ x.real / pressure_pa), materials)
-                d_umbo = static.umbo_vector_m_per_pa / np.linalg.norm(static.umbo_vector_m_per_pa)
-            else:
-                q[i - 1] = x
-    finally:
-        if solver is not None:
-            solver.free()
-    t3 = time.perf_counter()
+    x_static, q = _static_then_harmonic(model, (K, M, L, C), f, 2 * np.pi * freqs, damping.damped(names))
+    static = model.result(np.asarray(model.T @ x_static.real / pressure_pa), materials)
+    d_umbo = static.umbo_vector_m_per_pa / np.linalg.norm(static.umbo_vector_m_per_pa)
+    t2 = time.perf_counter()
     if cavities != "open" and pressure_pa != 0:  # fᵀq per Pa: the drum's volume displacement
         q *= cavity_factor(freqs, q @ model.load_reduced / pressure_pa, cavities)[:, None]
     u = (model.T @ q.T).T  # (n_freq, n_full)
-    drum_umbo = model.drum.node_sets["umbo"][0]
-    fp_centre = model.footplate.node_sets["centre"][0]
-    ndof = 6
-    umbo = u[:, model.off_drum + ndof * drum_umbo : model.off_drum + ndof * drum_umbo + 3]
-    fp = u[:, model.off_fp + ndof * fp_centre : model.off_fp + ndof * fp_centre + 3]
-    alpha_r = beta_r = None
-    if model.joint is not None:
-        ang = model.joint.angles[:2] @ u[:, model.off_joint : model.off_body].T
-        alpha_r, beta_r = ang[0], ang[1]
+    umbo, fp, alpha_r, beta_r = _point_motions(model, u)
     return EarHarmonicResult(
         freq_hz=freqs,
         umbo_m_per_pa=umbo @ d_umbo,
-        stapes_m_per_pa=fp @ np.asarray(g.piston_direction),
+        stapes_m_per_pa=fp @ np.asarray(model.geometry.piston_direction),
         alpha_rad_per_pa=alpha_r,
         beta_rad_per_pa=beta_r,
         umbo_vector_m_per_pa=umbo,
@@ -426,11 +386,86 @@ def harmonic(
         pressure_pa=float(pressure_pa),
         timings_s={
             "stiffness_mass": t1 - t0,
-            "factor_solve": t3 - t2,
-            "per_frequency": (t3 - t2) / (freqs.size + 1),
+            "factor_solve": t2 - t1,
+            "per_frequency": (t2 - t1) / (freqs.size + 1),
         },
         displacement=u if keep_displacement else None,
     )
+
+
+def _system_data(K, M_data, L, C, w, damped: bool) -> np.ndarray:
+    """Z's data on K's pattern: K alone for ``w`` None (the static system), else Z(ω).
+
+    Damped: K + iL + iωC − ω²M (complex symmetric); undamped: K − ω²M (real symmetric indefinite).
+    """
+    if w is None:
+        return K.data.astype(complex) if damped else K.data
+    if damped:
+        return K.data + 1j * (L + w * C) - w**2 * M_data
+    return K.data - w**2 * M_data
+
+
+def _static_then_harmonic(model, system, f, w, damped: bool) -> tuple[np.ndarray, np.ndarray]:
+    """The reduced static solution K q = f, then Z(ω) q = f at each ω of ``w`` (rad/s), by one solver.
+
+    Parameters
+    ----------
+    model : :class:`fem.ear.middle_ear.MiddleEarModel`
+    system : (K, M, L, C): the reduced stiffness and mass (CSR) and the damping data on K's pattern
+    f : (n_dofs,) reduced load
+    w : (n,) angular frequencies (rad/s)
+    damped : whether L or C is nonzero (complex symmetric solver; real indefinite otherwise)
+
+    Returns
+    -------
+    (n_dofs,) static solution (complex when damped) and (n, n_dofs) complex harmonic solutions.
+    One factorization per system, one analysis for all.
+    """
+    K, M, L, C = system
+    backend = "superlu" if model._solver_name == "superlu" else "auto"
+    # the static solver's ordering is not reused: a shared rigid-joint model crashed (SIGSEGV in
+    # PARDISO) in tests/test_lumped_ear.py after earlier static solves when it was; a fresh analysis
+    perm = None
+    solver = None
+    x_static = None
+    q = np.zeros((w.size, model.n_dofs), dtype=complex)
+    # the static solution (for the umbo's direction) by the same solver, first: the model's own
+    # static PARDISO solver is left alone (mixing it with other PARDISO instances crashed, SIGSEGV,
+    # in tests/test_lumped_ear.py)
+    try:
+        for i, wi in enumerate(np.concatenate([[None], w])):
+            data = _system_data(K, M.data, L, C, wi, damped)
+            Z = sp.csr_matrix((data, K.indices, K.indptr), shape=K.shape)
+            if solver is None:
+                make = make_complex_symmetric_solver if damped else make_indefinite_solver
+                solver = make(Z, backend, perm)
+            solver.factor(Z)
+            x = np.ravel(solver.solve(f))
+            if i == 0:
+                x_static = x
+            else:
+                q[i - 1] = x
+    finally:
+        if solver is not None:
+            solver.free()
+    return x_static, q
+
+
+def _point_motions(model, u: np.ndarray):
+    """The umbo's and the footplate centre's (n, 3) displacements and α, β (n,) of full dof vectors ``u``.
+
+    α and β are None for the rigid joint.
+    """
+    drum_umbo = model.drum.node_sets["umbo"][0]
+    fp_centre = model.footplate.node_sets["centre"][0]
+    ndof = 6
+    umbo = u[:, model.off_drum + ndof * drum_umbo : model.off_drum + ndof * drum_umbo + 3]
+    fp = u[:, model.off_fp + ndof * fp_centre : model.off_fp + ndof * fp_centre + 3]
+    alpha_r = beta_r = None
+    if model.joint is not None:
+        ang = model.joint.angles[:2] @ u[:, model.off_joint : model.off_body].T
+        alpha_r, beta_r = ang[0], ang[1]
+    return umbo, fp, alpha_r, beta_r
 
 
 @dataclass
