@@ -15,8 +15,7 @@ the model's static solver (its analysis reused), then triangular solves:
 - proportional damping (one η, a and b for every region: Z = αK + βM with complex scalars
   α = 1 + i(η + ωb), β = iωa − ω²): Z û = f̂ is (I + c K⁻¹M) û = K⁻¹f̂ / α with c = β/α, and the
   Krylov space of K⁻¹M from K⁻¹f̂ does not depend on c, so Lanczos in the M inner product
-  serves every frequency (a Galerkin solution each; 2–8 iterations reached 1e-13 on the default
-  mesh from 100 Hz to 30 kHz);
+  serves every frequency (a Galerkin solution each; the iterations it takes: docs/history.md);
 - otherwise (the default) there is no such shift: a Galerkin projection on a basis grown from
   K⁻¹f̂ by the preconditioned residuals K⁻¹r of the worst frequency (:func:`_projected`),
   which matches the direct solve to the residual tolerance below (docs/history.md).
@@ -351,9 +350,8 @@ def _direct_general(model, K, L, C, M, f, w) -> np.ndarray:
 def _solve_block(A: sp.csr_matrix, B: sp.csr_matrix, f: np.ndarray) -> np.ndarray:
     """Solve (A + iB) x = f, A and B real symmetric, f real, as the real 2n × 2n block system.
 
-    [[A, B], [B, −A]] [Re x; −Im x] = [f; 0], symmetric indefinite. The previous
-    path of :func:`harmonic`, kept as an independent reference for tests and
-    ``benchmarks/dynamics.py``.
+    [[A, B], [B, −A]] [Re x; −Im x] = [f; 0], symmetric indefinite: an independent
+    reference for :func:`harmonic`'s direct solves, in tests and ``benchmarks/dynamics.py``.
     """
     n = A.shape[0]
     big = sp.bmat([[A, B], [B, -A]], format="csr")

@@ -12,15 +12,11 @@ and one numeric factorization.
 
 Near-incompressible materials. Displacement elements lock as ν → 0.5: the
 volumetric stiffness λ ∝ ν/(1 − 2ν) swamps the rest and the mesh can no longer
-bend without changing volume. Above :data:`LOCKING_NU` (per element order) a
-:class:`~isj.errors.VolumetricLockingWarning` is issued. Measured on the default
-geometry (α on P2 meshes at resolution 0.35 and 0.7, and P1 against P2 on a
-coarse mesh): P2's α changes between the two meshes by 3 % at
-ν = 0.3, 0.5 % at 0.49, 5 % at 0.495, 21 % at 0.499 and 30 % at 0.4999999
-(no longer converging); P1's α is 0.77 of P2's at ν = 0.3, 0.64 at 0.45 and
-0.37 at 0.49 (P1 locks earlier). Part of α's fall with ν is physical (a thin
-bonded layer stiffens as it becomes incompressible), which is why the
-threshold is where the mesh dependence, not α, changes.
+bend without changing volume. Above :data:`LOCKING_NU` (per element order; P1
+locks earlier than P2) a :class:`~isj.errors.VolumetricLockingWarning` is issued.
+Part of α's fall with ν is physical (a thin bonded layer stiffens as it becomes
+incompressible), so each threshold is where α's dependence on the mesh grows,
+not where α itself falls (the measurements that set them: docs/history.md).
 """
 
 from __future__ import annotations
@@ -167,7 +163,7 @@ class ElasticModel:
 
         With PARDISO and a plain clamping the upper triangle PARDISO reads is
         gathered from ``data`` in one step, not through the reduced matrix
-        (the same numbers, in the same order; ~0.1 s of every solve after the first).
+        (the same numbers, in the same order; the time it saves: docs/performance.md §8.2).
         """
         solver = self._solver
         if not isinstance(solver, PardisoSolver) or type(self.reduction) is not Reduction:

@@ -222,7 +222,7 @@ def estimate_mesh_size(
         Estimates: the tetrahedra within about :data:`MEASURED_TET_ERROR` on the
         meshes measured; bytes the peak memory of meshing, assembling and one
         static solve (a harmonic or modal solve needs more: a second factorization).
-        About 0.1–1 s (the size field's integrals; cached per geometry).
+        The cost is the size field's integrals, cached per geometry.
     """
     _check(order, resolution)
     s = sizes or MeshSizes()

@@ -22,7 +22,7 @@ For the dynamic stiffness (``fem.dynamics``): :func:`make_indefinite_solver`
 (real symmetric indefinite, PARDISO mtype −2) and
 :func:`make_complex_symmetric_solver` (complex symmetric, PARDISO mtype 6 on
 the n × n complex matrix, complex128 through pypardiso's ctypes entry point;
-about 3× the real SPD factorization's time on the default mesh), both with
+its time: docs/performance.md §8.4), both with
 SuperLU as the fallback. A PARDISO solver returns its fill-reducing ordering
 in ``perm``; the others take it to skip their own.
 
@@ -110,8 +110,8 @@ def _mkl_rt_path() -> str | None:
     Without ``$PYPARDISO_MKL_RT`` pypardiso looks for it with
     ``ctypes.util.find_library`` (which runs ``ldconfig`` and the compiler in
     subprocesses) and then with a recursive glob of the environment, at its
-    import and again for every solver object: 0.3–0.8 s per ``isj fem solve``
-    on 2 cores (docs/performance.md §8.2).
+    import and again for every solver object, a noticeable part of every
+    ``isj fem solve`` (docs/performance.md §8.2).
     """
     try:
         from importlib.metadata import PackageNotFoundError, files
@@ -332,10 +332,9 @@ class PardisoComplexSymmetricSolver(PardisoSolver):
     """MKL PARDISO, complex symmetric (mtype 6, not Hermitian): K(1 + iη) + iωC − ω²M.
 
     The n × n complex matrix's upper triangle, complex128, instead of the real
-    2n × 2n block system: 5.3–6.1 s against 13–15 s on the default mesh.
-    Iterative refinement only after perturbed pivots (iparm(8) = 0): the
-    default two steps did not change the residual (≈ 4e-10 on the default
-    mesh) and tripled the solve's time.
+    2n × 2n block system, in less than half its time. Iterative refinement only
+    after perturbed pivots (iparm(8) = 0): PARDISO's default two steps leave the
+    residual as it is on this model and triple the solve's time (docs/history.md).
     """
 
     name = "pardiso_complex_symmetric"

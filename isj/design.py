@@ -66,9 +66,9 @@ class Geometry:
 
     - the thin soft layers, ``gap_thickness_m`` and ``capsule_thickness_m``, in
       [5 µm, 0.5 mm], and the capsule's ``capsule_reach_m`` and ``capsule_bond_m``
-      in [5 µm, 2 mm]. At 5 µm the meshes keep the default geometry's quality
-      (smallest dihedral angle 2.1° against 2.0° at resolution 0.5, measured);
-      at 1 µm it fell to 0.8°, and 1 nm gave a degenerate mesh (0.0014°);
+      in [5 µm, 2 mm]. At 5 µm the meshes keep the default geometry's quality;
+      thinner layers degrade it, down to a degenerate mesh (the measurements:
+      docs/history.md);
     - every other dimension in [10 µm, 2 mm]: the cat's pedicle, the thinnest
       bone here, is about 55 µm thick, and the whole stapes about 1.1 mm tall, so
       no part of the joint model is larger than about 2 mm.

@@ -25,13 +25,12 @@ coordinates (:data:`COORDINATES`), from the clamped face of the stapes head up:
   sliding joint (``joint="sliding"``) the gap's face glides: it carries no shear and its
   term drops, k_s = f_shear G_cap 2 (j_x + 2 t_c) t_c / (t + 2 reach) (docs/lumped.md §3.14).
 
-Why these two additions to a joint-and-pedicle chain: on the shipped calibration's 24
-FE modal designs, a chain clamped at z_j, with the capsule walls sheared over their free
-length t + 2 (reach − bond) only, reached f1 within 7.4 % and, with its shear factor
-fitted, f2 within 30 %; the errors grew with a soft stapes (the head's bending and shear
-were missing) and with the capsule's share of the shear stiffness. With the stapes head
-and the walls' whole span: f1 within 1.2 %, f2 within 3.0 % (training) and 4.6 %
-(held-out), ``benchmarks/dynamics.py``.
+Why the stapes head and the walls' whole span: a chain clamped at z_j lacks the head's
+bending and shear, so its errors grow with a soft stapes, and walls sheared over their free
+length only make them grow with the capsule's share of the shear stiffness (that chain's
+figures: docs/history.md). With both, the first two in-plane natural frequencies follow FE's
+on the calibration's modal designs within the figures of docs/performance.md §8.3
+(``benchmarks/dynamics.py``).
 
 α = θ_joint and β = ψ_root + φ_tip + ψ_top are point-pair rotations, so the static
 limit reproduces the calibrated static α and β exactly (the stapes head's and the

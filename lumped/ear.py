@@ -11,7 +11,7 @@ Coordinates q (the ear's frame, :mod:`isj.ear`):
   springs of k/3 along x, y, z; each incudal bundle isotropic, k I). With
   ``body="rotation"`` the body only turns about its nominal axis (the ligament line,
   ``th_axis``, the textbook one-dof ossicle); the FE body's axis, free to move, then
-  lies elsewhere, and the umbo comes out ≈ 17 % low (measured, see ``tests/test_lumped_ear.py``).
+  lies elsewhere, and the umbo comes out ≈ 17 % low (``tests/test_lumped_ear.py`` checks it).
 - ``alpha``, ``beta`` (rad): the joint's and the pedicle's relative rotations about
   the joint model's y axis, as in :func:`lumped.dynamics.chain_model` (α the joint's
   rotation about its mid-plane z_j = (z_gap + z_plate)/2, β = the pedicle's root and top

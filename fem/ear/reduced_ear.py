@@ -1,6 +1,7 @@
 """The FE whole ear over the audio band through a reduced model (docs/ear.md §5.14).
 
-Two real reductions, both measured against full harmonic solves (benchmarks/ear_sweep_fe.py):
+Two real reductions, both checked against full harmonic solves (:func:`check_against_direct`,
+benchmarks/ear_sweep_fe.py):
 
 1. the joint model condensed onto its two rigid bodies (:func:`fem.ear.joint_condensation.condense_joint`);
 2. each shell (drum, footplate) condensed onto the dofs where anything else acts
@@ -9,18 +10,12 @@ Two real reductions, both measured against full harmonic solves (benchmarks/ear_
    σ_j = (2π f_j)² evenly spaced in f up to 1.2 f_max and at σ = 0, from R₀ = [f_I, M_II Ψ + M_IB]
    (the pressure and the inertia of the constraint shapes).
 
-Why not modes. On the coarse test ear (4986 dofs after step 1) 197 drum modes lie below 20 kHz, 412
-below 40 kHz. The lowest modes up to 40 kHz with a static residual left 2–4 % errors in the
-stapes and 30 % in α with the published damping: the cochlea's dashpot (R = 0.19 N·s/m, ζ ≈ 6
-on the stapes) and the joint's loss factors (0.15 against the bone's 0.01) are far from
-proportional, and free modes miss both. Keeping the dofs they act on and reducing only shells
-whose damping is one loss factor each removes that error; the fixed-interface modes up to 30 kHz
-with the first two inertia corrections reached 1e-5 but cost a 4440-dof dense eigenproblem
-(30–40 s), the Krylov basis (20 shifts, two moments) reached 1e-6 in 2–6 s.
-
-On the default mesh (117 543 dofs) the reduction takes 33–38 s and leaves 619 coordinates, a
-frequency 6–10 ms (a direct solve 4.5–13 s on the same shared cores), and the largest error
-against direct solves at 100 Hz, 1.4 kHz and 20 kHz is 4.7e-5 in magnitude and 0.01° in phase.
+Why not modes. The cochlea's dashpot (R = 0.19 N·s/m, ζ ≈ 6 on the stapes) and the joint's
+loss factors (0.15 against the bone's 0.01) are far from proportional damping, and the ear's
+free modes miss both. Keeping the dofs they act on and reducing only shells whose damping is
+one loss factor each removes that error; the rational Krylov basis reaches the accuracy of the
+shells' fixed-interface modes with their inertia corrections at a fraction of the cost (the
+measurements, and the reduction's sizes, times and errors on the default mesh: docs/history.md).
 
 The reduced parts are projected once; any damping (a dictionary of η, a, b per part, the
 cochlear impedance, :class:`isj.damping.Damping`) is then a sum of projected parts and one
