@@ -220,6 +220,22 @@ def run_designs(
     designs = [_canonical_design(d) for d in designs]
     keys = [design_key(d, settings) for d in designs]
     cache = ResultCache(cache_dir)
+    records, todo = _cached_and_todo(cache, keys, designs)
+    failures = (
+        _evaluate(todo, records, cache, evaluate, settings, scheduler, max_workers, progress) if todo else []
+    )
+    if failures:
+        lines = [f"  {d}: {type(e).__name__}: {e}" for d, e in failures]
+        raise EvaluationError(
+            f"{len(failures)} of {len(todo)} design(s) failed (the others are cached in {cache.directory}):\n"
+            + "\n".join(lines),
+            failures,
+        ) from failures[0][1]
+    return [records[k] for k in keys]
+
+
+def _cached_and_todo(cache: ResultCache, keys: list[str], designs: list[dict]) -> tuple[dict, dict]:
+    """(key → cached record, key → design to evaluate), each distinct key once, in input order."""
     records: dict[str, dict] = {}
     todo: dict[str, dict] = {}
     for key, design in zip(keys, designs, strict=True):
@@ -230,46 +246,55 @@ def run_designs(
             todo[key] = design
         else:
             records[key] = rec
+    return records, todo
 
+
+def _evaluate(
+    todo: dict[str, dict],
+    records: dict[str, dict],
+    cache: ResultCache,
+    evaluate: Callable,
+    settings: dict,
+    scheduler,
+    max_workers: int | None,
+    progress: bool,
+) -> list[tuple[dict, BaseException]]:
+    """Evaluate ``todo`` (key → design) here, on a local pool or on Dask, with a progress bar.
+
+    Each result is cached and added to ``records`` as it arrives. Returns the failures,
+    ``(design, exception)`` for each evaluation that raised or returned something other than a
+    dict; the others go on.
+    """
     failures: list[tuple[dict, BaseException]] = []
-    if todo:
-        bar = tqdm(
-            total=len(todo),
-            desc="FE designs",
-            unit="design",
-            disable=None if progress else True,
-            postfix={"cached": len(records)},
-        )
-        try:
+    bar = tqdm(
+        total=len(todo),
+        desc="FE designs",
+        unit="design",
+        disable=None if progress else True,
+        postfix={"cached": len(records)},
+    )
+    try:
 
-            def store(key: str, outcome: Callable[[], Mapping]) -> None:
-                try:
-                    result = outcome()
-                    if not isinstance(result, Mapping):
-                        raise TypeError(f"evaluate returned {type(result).__name__}, expected a dict")
-                    records[key] = cache.put(key, todo[key], settings, result)
-                except Exception as exc:  # keep going: the other results are still worth caching
-                    failures.append((todo[key], exc))
-                bar.update()
+        def store(key: str, outcome: Callable[[], Mapping]) -> None:
+            try:
+                result = outcome()
+                if not isinstance(result, Mapping):
+                    raise TypeError(f"evaluate returned {type(result).__name__}, expected a dict")
+                records[key] = cache.put(key, todo[key], settings, result)
+            except Exception as exc:  # keep going: the other results are still worth caching
+                failures.append((todo[key], exc))
+            bar.update()
 
-            if scheduler is None and max_workers == 0:
-                for key, design in todo.items():
-                    store(key, lambda design=design: evaluate(design, settings))
-            elif scheduler is None:
-                _run_pool(todo, evaluate, settings, max_workers, store)
-            else:
-                _run_dask(todo, evaluate, settings, scheduler, store)
-        finally:
-            bar.close()
-
-    if failures:
-        lines = [f"  {d}: {type(e).__name__}: {e}" for d, e in failures]
-        raise EvaluationError(
-            f"{len(failures)} of {len(todo)} design(s) failed (the others are cached in {cache.directory}):\n"
-            + "\n".join(lines),
-            failures,
-        ) from failures[0][1]
-    return [records[k] for k in keys]
+        if scheduler is None and max_workers == 0:
+            for key, design in todo.items():
+                store(key, lambda design=design: evaluate(design, settings))
+        elif scheduler is None:
+            _run_pool(todo, evaluate, settings, max_workers, store)
+        else:
+            _run_dask(todo, evaluate, settings, scheduler, store)
+    finally:
+        bar.close()
+    return failures
 
 
 def _run_pool(todo: dict, evaluate, settings: dict, max_workers: int | None, store) -> None:

@@ -64,55 +64,46 @@ def run_calibration(
         Given, the adaptive calibration (docs/lumped.md §3.15) with ``tolerance``, ``n_dense``,
         ``per_round``, ``max_rounds`` and ``log`` (one line per round).
     """
+    # the options every kind of static calibration takes
+    common = {
+        "samples": samples,
+        "validation": validation,
+        "seed": seed,
+        "scheduler": scheduler,
+        "progress": progress,
+    }
     if surrogate is not None:
-        cal = calibrate_adaptive(
-            evaluate,
-            settings,
-            cache_dir,
-            surrogate,
-            samples=samples,
-            validation=validation,
-            seed=seed,
-            scheduler=scheduler,
-            progress=progress,
-            log=log,
-            tolerance=tolerance,
-            n_dense=n_dense,
-            per_round=per_round,
-            max_rounds=max_rounds,
-        )
+        adaptive = {
+            "tolerance": tolerance,
+            "n_dense": n_dense,
+            "per_round": per_round,
+            "max_rounds": max_rounds,
+        }
+        cal = calibrate_adaptive(evaluate, settings, cache_dir, surrogate, log=log, **adaptive, **common)
     elif geometry_domain:
-        cal = calibrate_geometry(
-            evaluate,
-            settings,
-            cache_dir,
-            samples=samples,
-            validation=validation,
-            seed=seed,
-            max_workers=max_workers,
-            progress=progress,
-            scheduler=scheduler,
-        )
+        cal = calibrate_geometry(evaluate, settings, cache_dir, max_workers=max_workers, **common)
     else:
-        cal = calibrate(
-            evaluate,
-            settings,
-            cache_dir,
-            samples=samples,
-            validation=validation,
-            seed=seed,
-            scheduler=scheduler,
-            progress=progress,
-        )
+        cal = calibrate(evaluate, settings, cache_dir, **common)
     if modal_samples:
-        cal = calibrate_dynamics(
-            cal,
-            evaluate_modes,
-            settings,
-            cache_dir,
-            samples=modal_samples,
-            validation=max(modal_samples // 2, 2),
-            seed=seed + 100,
-            progress=progress,
-        )
+        cal = _chain_calibration(cal, evaluate_modes, settings, cache_dir, modal_samples, seed, progress)
     return cal
+
+
+def _chain_calibration(
+    cal, evaluate_modes, settings: dict, cache_dir, modal_samples: int, seed: int, progress
+):
+    """``cal`` with the chain's joint shear factor fitted to ``modal_samples`` FE modal analyses.
+
+    Half as many, at least 2, are held out; the designs are drawn with ``seed + 100`` so that
+    they differ from the static ones.
+    """
+    return calibrate_dynamics(
+        cal,
+        evaluate_modes,
+        settings,
+        cache_dir,
+        samples=modal_samples,
+        validation=max(modal_samples // 2, 2),
+        seed=seed + 100,
+        progress=progress,
+    )

@@ -324,23 +324,49 @@ def build_pedicle_joint(geometry: Geometry, sizes: MeshSizes) -> dict[str, list[
 
     g = geometry
     model = gmsh.model
-    occ = model.occ
-    jx, jy = _um(g.joint_x_m), _um(g.joint_y_m)
-    px, py = _um(g.pedicle_x_m), _um(g.pedicle_y_m)
-    ix, iy = _um(g.incus_x_m), _um(g.incus_y_m)
-    t = _um(g.capsule_thickness_m)
-    z_gap, z_plate = _um(g.z_gap), _um(g.z_plate)
-    z_ped, z_inc, z_top = _um(g.z_pedicle), _um(g.z_incus), _um(g.z_top)
-    lv = joint_levels_um(g)
-    z_cap = [lv["capsule_start"], lv["free_start"], lv["free_end"], lv["capsule_end"]]
+    boxes = _joint_boxes_um(g)
+    z_cap = _capsule_levels_um(g)
+    regions = _add_joint_volumes(model.occ, boxes, g, z_cap)
+    tol = 1e-3 * min(_um(g.capsule_thickness_m), _um(g.pedicle_x_m), _um(g.gap_thickness_m))
+    surfaces, bonded = _joint_surfaces(model, regions, g, z_cap, tol)
+    for name in REGIONS:
+        model.addPhysicalGroup(3, regions[name], name=name)
+    for name, tags in surfaces.items():
+        model.addPhysicalGroup(2, tags, name=name)
+    _size_field(
+        model, _joint_field_boxes(boxes, g, sizes, z_cap), sizes, _singular_edges(model, g, sizes, tol)
+    )
+    return {**regions, **surfaces, "capsule_bonded": bonded}
 
-    boxes = {
+
+def _joint_boxes_um(g: Geometry) -> dict[str, tuple[float, float, float, float]]:
+    """The stacked boxes of the joint model (µm): region → (x width, y width, z0, z1)."""
+    jx, jy = _um(g.joint_x_m), _um(g.joint_y_m)
+    z_gap, z_plate = _um(g.z_gap), _um(g.z_plate)
+    z_ped, z_inc = _um(g.z_pedicle), _um(g.z_incus)
+    return {
         "stapes": (jx, jy, 0.0, z_gap),
         "gap": (jx, jy, z_gap, z_plate),
         "plate": (jx, jy, z_plate, z_ped),
-        "pedicle": (px, py, z_ped, z_inc),
-        "incus": (ix, iy, z_inc, z_top),
+        "pedicle": (_um(g.pedicle_x_m), _um(g.pedicle_y_m), z_ped, z_inc),
+        "incus": (_um(g.incus_x_m), _um(g.incus_y_m), z_inc, _um(g.z_top)),
     }
+
+
+def _capsule_levels_um(g: Geometry) -> list[float]:
+    """z (µm) where the capsule starts, its free middle starts and ends, and the capsule ends."""
+    lv = joint_levels_um(g)
+    return [lv["capsule_start"], lv["free_start"], lv["free_end"], lv["capsule_end"]]
+
+
+def _add_joint_volumes(occ, boxes: dict, g: Geometry, z_cap: list[float]) -> dict[str, list[int]]:
+    """Add the boxes and the capsule's sleeve pieces, fragmented: region → volume tags.
+
+    The capsule is built in up to three pieces (bonded end, free middle, bonded end) so that
+    the lines between them exist; a piece of zero length is left out.
+    """
+    jx, jy = _um(g.joint_x_m), _um(g.joint_y_m)
+    t = _um(g.capsule_thickness_m)
     pieces = [(name, _centred_box(occ, wx, wy, z0, z1)) for name, (wx, wy, z0, z1) in boxes.items()]
     pieces += [
         ("capsule", _sleeve(occ, jx, jy, t, z0, z1))
@@ -350,8 +376,18 @@ def build_pedicle_joint(geometry: Geometry, sizes: MeshSizes) -> dict[str, list[
     regions = _fragment(occ, pieces)
     if set(regions) != set(REGIONS) or any(not v for v in regions.values()):
         raise RuntimeError(f"fragment lost a region: got {sorted(regions)}")
+    return regions
 
-    tol = 1e-3 * min(t, px, _um(g.gap_thickness_m))
+
+def _joint_surfaces(
+    model, regions: dict[str, list[int]], g: Geometry, z_cap: list[float], tol: float
+) -> tuple[dict[str, list[int]], list[int]]:
+    """The named faces ``clamped``, ``loaded``, ``capsule_free`` → surface tags, and the bonded capsule faces.
+
+    The capsule faces touching the stapes, gap or plate are free between ``z_cap[1]`` and
+    ``z_cap[2]`` and bonded elsewhere; ``tol`` (µm) is the slack of each bounding-box test.
+    """
+    ix = _um(g.incus_x_m)
     bone_side = set().union(*(_boundary_surfaces(model, regions[n]) for n in ("stapes", "gap", "plate")))
     capsule_inner = _boundary_surfaces(model, regions["capsule"]) & bone_side
     free = _surfaces_where(
@@ -374,18 +410,21 @@ def build_pedicle_joint(geometry: Geometry, sizes: MeshSizes) -> dict[str, list[
     for name, tags in surfaces.items():
         if not tags:
             raise RuntimeError(f"no gmsh surface found for {name!r}")
+    return surfaces, bonded
 
-    for name in REGIONS:
-        model.addPhysicalGroup(3, regions[name], name=name)
-    for name, tags in surfaces.items():
-        model.addPhysicalGroup(2, tags, name=name)
 
+def _joint_field_boxes(boxes: dict, g: Geometry, sizes: MeshSizes, z_cap: list[float]) -> list:
+    """Size-field boxes (µm at R = 1): one per stacked box, then one per capsule wall.
+
+    Each is ``(size, (x0, y0, z0, x1, y1, z1))``, as :func:`_size_field` takes them.
+    """
     field_boxes = [
         (_um(sizes.base_size(n)), (-wx / 2, -wy / 2, z0, wx / 2, wy / 2, z1))
         for n, (wx, wy, z0, z1) in boxes.items()
     ]
     # A Box field cannot describe a sleeve: use one box per wall so that the
     # capsule's fine size does not fill the joint it surrounds.
+    jx, jy, t = _um(g.joint_x_m), _um(g.joint_y_m), _um(g.capsule_thickness_m)
     ax, ay, bx, by = jx / 2, jy / 2, jx / 2 + t, jy / 2 + t
     h_cap = _um(sizes.base_size("capsule"))
     for x0, y0, x1, y1 in (
@@ -395,8 +434,7 @@ def build_pedicle_joint(geometry: Geometry, sizes: MeshSizes) -> dict[str, list[
         (-ax, ay, ax, by),
     ):
         field_boxes.append((h_cap, (x0, y0, z_cap[0], x1, y1, z_cap[-1])))
-    _size_field(model, field_boxes, sizes, _singular_edges(model, g, sizes, tol))
-    return {**regions, **surfaces, "capsule_bonded": bonded}
+    return field_boxes
 
 
 def build_cantilever(geometry: Geometry, sizes: MeshSizes) -> dict[str, list[int]]:

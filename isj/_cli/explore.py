@@ -2,12 +2,10 @@
 
 from __future__ import annotations
 
-import dataclasses
 import itertools
 import sys
-import time
 
-from isj.design import Geometry, Materials
+from isj.design import Materials
 from isj.errors import UsageError
 
 from . import _common as c
@@ -115,7 +113,7 @@ def load_surrogate(
 
 
 def _surrogate(args):
-    """(rom, None) or (None, why); a first build of the mesh's surrogate says so on stderr."""
+    """(rom, None) or (None, why); a first build of the mesh's surrogate, or none, says so on stderr."""
     told = []
 
     def progress(step):
@@ -129,19 +127,23 @@ def _surrogate(args):
 
     lo, hi = args.incus_e
     geometry = c.geometry(args) if args.geometry else None
-    return load_surrogate(args.order, args.resolution, geometry, lo if lo == hi else None, progress)
+    rom, why = load_surrogate(args.order, args.resolution, geometry, lo if lo == hi else None, progress)
+    if rom is None:
+        print(f"isj: warning: {why}; the lumped model is NOT guarded (FE spot checks only)", file=sys.stderr)
+    return rom, why
 
 
-def explore(args) -> int:
+def _checked(args):
+    """(calibration, geometry, space, out folder or None) of ``args``: UsageError for a bad option.
 
-    from isj.fem.batch import evaluate_design, fe_settings
-    from isj.studies.explore import MAX_DESIGNS, ExploreSpace, count_designs, explore_designs
-    from isj.studies.explore import explore as run
+    Warns for a dimension outside the calibration's geometry; refuses a count of designs too
+    large before anything of that size is allocated.
+    """
+    from isj.studies.explore import MAX_DESIGNS, ExploreSpace, count_designs
 
-    from ..caches import fe_cache_dir
     from .lumped import calibration_and_geometry
 
-    cal, geometry = calibration_and_geometry(args)  # warns for a dimension outside its geometry
+    cal, geometry = calibration_and_geometry(args)
     if args.n < 1 or (args.sample is not None and args.sample < 1) or args.spot_checks < 0:
         raise UsageError("--n, --sample: must be >= 1; --spot-checks: must be >= 0")
     guarded = not args.no_guard
@@ -150,7 +152,7 @@ def explore(args) -> int:
         c.check_model_size(geometry, args.order, args.resolution)
         c.check_caches(args, "mesh", "fe", *(("rom",) if guarded else ()))
     space = ExploreSpace(**{f"{r}_e_pa": getattr(args, f"{r}_e") for r in c.MODULUS_OPTIONS})
-    total = count_designs(space, args.n, args.sample)  # before anything of that size is allocated
+    total = count_designs(space, args.n, args.sample)
     flag = f"--sample = {args.sample}" if args.sample is not None else f"--n = {args.n}"
     if total > MAX_DESIGNS:
         raise UsageError(f"{flag}: {total:.3g} designs is too many (at most {MAX_DESIGNS:.0e})")
@@ -158,96 +160,45 @@ def explore(args) -> int:
         raise UsageError(
             f"{flag}: {total:.3g} designs is too many to write with --out (at most {MAX_OUT_DESIGNS:.0e})"
         )
-    designs = explore_designs(space, args.n, args.sample, args.seed)
-    t0 = time.perf_counter()
-    rom, why = _surrogate(args) if guarded else (None, "--no-guard")
-    t_load = time.perf_counter() - t0
-    # after the surrogate: its first build takes minutes, and the settings carry the FE results versions
-    settings = fe_settings(
-        order=args.order, resolution=args.resolution, geometry=geometry, pressure_pa=args.pressure
-    )
-    if rom is None and guarded:
-        print(f"isj: warning: {why}; the lumped model is NOT guarded (FE spot checks only)", file=sys.stderr)
-    ex = run(
+    return cal, geometry, space, out
+
+
+def explore(args) -> int:
+    """``isj explore``: check the options, run :func:`isj.studies.explore.run_explore`, write, print.
+
+    Returns 0, or 1 when an explored design fails its FE spot check or the guard, or FE lies
+    outside the surrogate's bound (one ``isj: error:`` line naming each).
+    """
+    from isj.studies.explore import run_explore
+
+    from ..caches import fe_cache_dir
+
+    cal, geometry, space, out = _checked(args)
+    run = run_explore(
         cal,
-        designs,
-        args.spot_checks,
-        evaluate_design,
-        settings,
+        space,
+        (lambda: (None, "--no-guard")) if args.no_guard else (lambda: _surrogate(args)),
         fe_cache_dir(args.cache),
+        n=args.n,
+        sample=args.sample,
         seed=args.seed,
-        progress=not args.json,
-        surrogate=rom,
+        spot_checks=args.spot_checks,
         tolerance=args.tolerance,
         n_dense=args.guard_sample,
+        geometry=geometry,
+        pressure_pa=args.pressure,
+        order=args.order,
+        resolution=args.resolution,
+        progress=not args.json,
     )
-    if geometry != Geometry():  # the explored designs' lumped response, at this geometry
-        from isj.calibration.checks import lumped_static
-
-        ex = dataclasses.replace(ex, lumped=lumped_static(cal, designs, geometry, args.pressure))
-    lum, comp = ex.lumped, ex.checks
-    passed = comp.passed(args.tolerance)
-    ea, eb = comp.rel_error("alpha_rad"), comp.rel_error("beta_rad")
-    checks = [
-        {
-            "set": ex.pick_sets[i],
-            "design": comp.designs[i],
-            "fe_alpha_rad": comp.fe_results[i]["alpha_rad"],
-            "fe_beta_rad": comp.fe_results[i]["beta_rad"],
-            "lumped_alpha_rad": float(comp.lumped_alpha_rad[i]),
-            "lumped_beta_rad": float(comp.lumped_beta_rad[i]),
-            "alpha_rel_error": float(ea[i]),
-            "beta_rel_error": float(eb[i]),
-            "passed": bool(passed[i]),
-        }
-        for i in range(comp.n)
-    ]
-    # what fails the run: an explored design's spot check or guard, or FE outside the surrogate's bound
-    n_failed = sum(not ck["passed"] for ck in checks if ck["set"] == "explored")
-    g = ex.guard.summary(ex.confirmations) if ex.guard is not None else {"available": False, "reason": why}
-    if ex.guard is not None:
-        g["surrogate_load_time_s"] = t_load  # from the cache, or the first build for this mesh
-    n_guard_failed = g["explored"]["n_fail"] if ex.guard is not None else 0
-    n_unconfirmed = sum(not r["confirmed"] for r in ex.confirmations)
-    summary = {
-        "n_designs": ex.n_designs,
-        "lumped_time_s": ex.lumped_time_s,
-        "outside_domain": ex.outside_domain,
-        "alpha_rad_range": [float(lum.alpha_rad.min()), float(lum.alpha_rad.max())],
-        "beta_rad_range": [float(lum.beta_rad.min()), float(lum.beta_rad.max())],
-        "tolerance": args.tolerance,
-        "spot_checks": checks,
-        "max_spot_error": comp.max_abs_error(),
-        "guard": g,
-        "region": _region_summary(cal, ex),
-        "passed": not (n_failed or n_guard_failed or n_unconfirmed),
-    }
-    c.check_finite(summary, f"--pressure {args.pressure:g}")
+    c.check_finite(run.summary, f"--pressure {args.pressure:g}")
     if out is not None:
-        write_outputs(out, args, ex, space, g, summary)
+        write_outputs(out, args, run.exploration, space, run.guard, run.summary)
     if args.json:
-        c.print_json(summary)
+        c.print_json(run.summary)
     else:
-        _print(args, ex, checks, g, summary["region"])
-    if n_failed or n_guard_failed or n_unconfirmed:
-        parts = [
-            f"{n_failed} FE spot check(s) of explored designs exceed the tolerance {args.tolerance:g}"
-            * bool(n_failed),
-            f"{n_guard_failed} explored design(s) fail the guard" * bool(n_guard_failed),
-            f"FE lies outside the surrogate's bound at {n_unconfirmed} design(s)" * bool(n_unconfirmed),
-        ]
-        return c.fail("; ".join(p for p in parts if p))
-    return 0
-
-
-def _region_summary(cal, ex) -> dict | None:
-    """How many explored designs lie outside the calibration's map of its tolerance (None: no map)."""
-    if ex.in_region is None:
-        return None
-    from isj.calibration.region import region_of
-
-    n_out = int(ex.in_region.size - ex.in_region.sum())
-    return {"tolerance": float(region_of(cal)["tolerance"]), "n_outside": n_out, "n": int(ex.in_region.size)}
+        _print(args, run.exploration, run.checks, run.guard, run.summary["region"])
+    return c.fail("; ".join(run.failures)) if run.failures else 0
 
 
 def _pct(x) -> str:

@@ -7,9 +7,11 @@ pinned modulus has low == high. Designs come from the unit cube through
 calibration sample, as one array per modulus so that millions of designs stay
 cheap. The spot checks go through :func:`isj.calibration.checks.compare_static`
 with the FE evaluator the caller passes in. Given the certified surrogate of the FE model
-(:func:`isj.calibration.guard.load_surrogate`), :func:`explore` guards every design with it
+(:func:`isj.fem.rom.reduced_model`), :func:`explore` guards every design with it
 (:mod:`isj.calibration.guard`) and spends the FE spot checks on the designs with the largest
 certified lumped error, where FE also confirms the surrogate's bound.
+:func:`run_explore` is ``isj explore`` as one call: the designs, the surrogate the caller
+loads, the FE settings, :func:`explore` and the summary the command prints and writes.
 """
 
 from __future__ import annotations
@@ -281,3 +283,187 @@ def explore(
         confirmations=confirmed,
         in_region=in_region(region_of(calibration), calibration.domain, designs),
     )
+
+
+@dataclass(frozen=True)
+class ExploreRun:
+    """What :func:`run_explore` computed.
+
+    Attributes
+    ----------
+    exploration : Exploration
+        The lumped model over the designs, the guard and the FE spot checks.
+    checks : list of dict
+        Per FE spot check: its set, design, FE and lumped α, β (rad), their relative errors
+        (lumped / FE − 1) and whether both lie within the tolerance.
+    guard : dict
+        The guard's summary (:meth:`isj.calibration.guard.Guard.summary`, with
+        ``surrogate_load_time_s``), or ``{"available": False, "reason": ...}`` without a surrogate.
+    summary : dict
+        The JSON summary of ``isj explore`` (SI units; timings in s).
+    failures : list of str
+        What fails the run, one phrase each: explored designs whose spot check exceeds the
+        tolerance, explored designs that fail the guard, FE outside the surrogate's bound.
+    """
+
+    exploration: Exploration
+    checks: list[dict]
+    guard: dict
+    summary: dict
+    failures: list[str]
+
+    @property
+    def passed(self) -> bool:
+        """No failure."""
+        return not self.failures
+
+
+def run_explore(
+    calibration,
+    space: DesignSpace,
+    load_surrogate: Callable[[], tuple[object | None, str | None]],
+    cache_dir: str | os.PathLike,
+    *,
+    n: int = 5,
+    sample: int | None = None,
+    seed: int = 0,
+    spot_checks: int = 4,
+    tolerance: float = DEFAULT_TOLERANCE,
+    n_dense: int = DEFAULT_DENSE,
+    geometry: Geometry | None = None,
+    pressure_pa: float = DEFAULT_PRESSURE_PA,
+    order: int = 2,
+    resolution: float = 1.0,
+    evaluate: Callable[[dict, dict], Mapping] | None = None,
+    progress: bool = True,
+) -> ExploreRun:
+    """``isj explore`` as one library call: the designs of ``space``, guarded, spot-checked, summarised.
+
+    The caller checks the inputs first (the command line in :mod:`isj._cli.explore`); nothing
+    is written here.
+
+    Parameters
+    ----------
+    calibration : isj.lumped.artifact.Calibration
+    space : DesignSpace
+        Usually an :class:`ExploreSpace`: :func:`explore_designs` with ``n``, ``sample``, ``seed``.
+    load_surrogate : callable
+        Called once, after the designs are made: ``(surrogate, None)``, or ``(None, why)`` to
+        explore unguarded (``why`` is recorded as the guard's reason). Its time is recorded.
+    cache_dir : path
+        FE result cache.
+    spot_checks, tolerance, n_dense, progress
+        As in :func:`explore` (``tolerance`` is relative; it also decides the spot checks).
+    geometry : Geometry, optional
+        Dimensions (m) of the lumped model and the FE checks; default geometry when None.
+    pressure_pa : float
+        Pressure on the incus (Pa).
+    order, resolution : int, float
+        The FE model's element order and mesh refinement (:func:`isj.fem.batch.fe_settings`).
+    evaluate : callable, optional
+        FE evaluator; default :func:`isj.fem.batch.evaluate_design`.
+    """
+    from isj.fem.batch import evaluate_design, fe_settings
+
+    designs = explore_designs(space, n, sample, seed)
+    t0 = time.perf_counter()
+    surrogate, why = load_surrogate()
+    t_load = time.perf_counter() - t0
+    # after the surrogate: its first build takes minutes, and the settings carry the FE results versions
+    settings = fe_settings(order=order, resolution=resolution, geometry=geometry, pressure_pa=pressure_pa)
+    ex = explore(
+        calibration,
+        designs,
+        spot_checks,
+        evaluate or evaluate_design,
+        settings,
+        cache_dir,
+        seed=seed,
+        progress=progress,
+        surrogate=surrogate,
+        tolerance=tolerance,
+        n_dense=n_dense,
+    )
+    checks = _check_rows(ex, tolerance)
+    guard = _guard_summary(ex, why, t_load)
+    failures = _failures(checks, ex, guard, tolerance)
+    summary = _summary(calibration, ex, checks, guard, tolerance, passed=not failures)
+    return ExploreRun(exploration=ex, checks=checks, guard=guard, summary=summary, failures=failures)
+
+
+def _summary(calibration, ex: Exploration, checks, guard: dict, tolerance: float, passed: bool) -> dict:
+    """The JSON summary of ``isj explore``: ranges of α, β (rad) over the designs, checks, guard, region."""
+    lum = ex.lumped
+    return {
+        "n_designs": ex.n_designs,
+        "lumped_time_s": ex.lumped_time_s,
+        "outside_domain": ex.outside_domain,
+        "alpha_rad_range": [float(lum.alpha_rad.min()), float(lum.alpha_rad.max())],
+        "beta_rad_range": [float(lum.beta_rad.min()), float(lum.beta_rad.max())],
+        "tolerance": tolerance,
+        "spot_checks": checks,
+        "max_spot_error": ex.checks.max_abs_error(),
+        "guard": guard,
+        "region": _region_summary(calibration, ex),
+        "passed": passed,
+    }
+
+
+def _check_rows(ex: Exploration, tolerance: float) -> list[dict]:
+    """One JSON-able row per FE spot check of ``ex``."""
+    comp = ex.checks
+    passed = comp.passed(tolerance)
+    ea, eb = comp.rel_error("alpha_rad"), comp.rel_error("beta_rad")
+    return [
+        {
+            "set": ex.pick_sets[i],
+            "design": comp.designs[i],
+            "fe_alpha_rad": comp.fe_results[i]["alpha_rad"],
+            "fe_beta_rad": comp.fe_results[i]["beta_rad"],
+            "lumped_alpha_rad": float(comp.lumped_alpha_rad[i]),
+            "lumped_beta_rad": float(comp.lumped_beta_rad[i]),
+            "alpha_rel_error": float(ea[i]),
+            "beta_rel_error": float(eb[i]),
+            "passed": bool(passed[i]),
+        }
+        for i in range(comp.n)
+    ]
+
+
+def _guard_summary(ex: Exploration, why: str | None, load_time_s: float) -> dict:
+    """The guard's summary with the surrogate's load time, or why there is no guard."""
+    if ex.guard is None:
+        return {"available": False, "reason": why}
+    g = ex.guard.summary(ex.confirmations)
+    g["surrogate_load_time_s"] = load_time_s  # from the cache, or the first build for this mesh
+    return g
+
+
+def _failures(checks: list[dict], ex: Exploration, guard: dict, tolerance: float) -> list[str]:
+    """What fails the run: an explored design's spot check or guard, or FE outside the surrogate's bound.
+
+    The spot checks of the corners and the dense sample are reported but fail nothing.
+    """
+    n_failed = sum(not ck["passed"] for ck in checks if ck["set"] == "explored")
+    n_guard_failed = guard["explored"]["n_fail"] if ex.guard is not None else 0
+    n_unconfirmed = sum(not r["confirmed"] for r in ex.confirmations)
+    out = []
+    if n_failed:
+        out.append(f"{n_failed} FE spot check(s) of explored designs exceed the tolerance {tolerance:g}")
+    if n_guard_failed:
+        out.append(f"{n_guard_failed} explored design(s) fail the guard")
+    if n_unconfirmed:
+        out.append(f"FE lies outside the surrogate's bound at {n_unconfirmed} design(s)")
+    return out
+
+
+def _region_summary(calibration, ex: Exploration) -> dict | None:
+    """How many explored designs lie outside the calibration's map of its tolerance (None: no map)."""
+    if ex.in_region is None:
+        return None
+    n_out = int(ex.in_region.size - ex.in_region.sum())
+    return {
+        "tolerance": float(region_of(calibration)["tolerance"]),
+        "n_outside": n_out,
+        "n": int(ex.in_region.size),
+    }
