@@ -21,8 +21,10 @@ take turns, so that the second finds the first's entry instead of redoing it.
 from __future__ import annotations
 
 import contextlib
+import errno
 import fcntl
 import glob
+import itertools
 import json
 import os
 import secrets
@@ -189,19 +191,33 @@ def swap_dir(staging: Path, path: Path) -> None:
     Any previous folder is first moved aside into a locked folder of its own, ``staging`` is
     renamed into place, and the previous one removed last; if the second rename fails the
     previous folder is put back.
+
+    Another run swapping its folder into ``path`` at the same moment (two reports given one
+    ``--out``) may move ``path`` aside first, or put its own folder there between the two
+    renames: the renames are then tried again, so that each run ends with one complete folder
+    at ``path`` (the last run's) and no error.
     """
     old, fd = None, None
-    if path.exists():
-        old, fd = _locked_sibling(path, ".old")
     try:
-        if old is not None:
-            os.replace(path, old / path.name)  # aside, inside a folder of its own
-        try:
-            os.replace(staging, path)
-        except BaseException:
-            if old is not None:  # put the previous folder back
-                os.replace(old / path.name, path)
-            raise
+        for attempt in itertools.count():
+            aside = None
+            if path.exists():
+                if old is None:
+                    old, fd = _locked_sibling(path, ".old")
+                aside = old / f"{path.name}.{attempt}"
+                try:
+                    os.replace(path, aside)  # aside, inside a folder of its own
+                except FileNotFoundError:  # another run moved it aside first
+                    aside = None
+            try:
+                os.replace(staging, path)
+                return
+            except BaseException as exc:
+                if isinstance(exc, OSError) and exc.errno in (errno.ENOTEMPTY, errno.EEXIST):
+                    continue  # another run's folder came in between: it goes aside too
+                if aside is not None:  # put the previous folder back
+                    os.replace(aside, path)
+                raise
     finally:
         if old is not None:
             shutil.rmtree(old, ignore_errors=True)
