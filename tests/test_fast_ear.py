@@ -19,6 +19,7 @@ from isj.fem.ear.fast_ear import (
 )
 from isj.fem.ear.middle_ear import MiddleEarModel
 from isj.fem.ear.reduced_ear import reduced_ear
+from test_cache_entries import DAMAGES, damage, one_warning_naming
 
 from isj.cachefile import DamagedEntry
 from isj.design import Materials
@@ -216,3 +217,32 @@ def test_stored_read_back_and_found_in_the_cache(fast, ear, tmp_path, monkeypatc
     path.write_bytes(path.read_bytes()[:1000])
     with pytest.raises(DamagedEntry):
         FastEar.load(path)
+
+
+@pytest.mark.parametrize("how", DAMAGES)
+def test_a_damaged_fast_ear_entry_is_reported_deleted_and_rebuilt(fast, ear, tmp_path, monkeypatch, how):
+    import warnings
+
+    import isj.fem.ear.fast_ear as fast_ear_module
+
+    monkeypatch.setenv("ISJ_FE_CACHE_DIR", str(tmp_path / "fe"))
+    settings = {"fmax_hz": 20e3, "pod_tol": fast.meta["joint"]["pod_tol"]}
+    entry = fast_ear_cache_dir() / f"fast-ear-{cache_key(ear, None, None, settings)[:32]}.npz"
+    entry.parent.mkdir(parents=True)
+    fast.save(entry)
+    damage(entry, how)
+    builds = []
+
+    def build(*args, **kwargs):  # the rebuild, without its cost: the entry's own contents
+        builds.append(args[0])
+        return fast
+
+    monkeypatch.setattr(fast_ear_module, "build_fast_ear", build)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        got = fast_ear(ear)
+    one_warning_naming(caught, entry, how)
+    assert builds == [ear] and got is fast
+    # the damaged entry was replaced by the rebuilt one, which reads back whole
+    back = FastEar.load(entry)
+    assert all(np.array_equal(back.arrays[k], fast.arrays[k]) for k in fast.arrays)
