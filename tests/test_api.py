@@ -173,6 +173,7 @@ def test_load_and_corrupt_file(tmp_path):
         isj.LumpedModel.load(path)
 
 
+@pytest.mark.slow
 def test_chain_response_is_isj_sweep_bit_for_bit(lm, tmp_path):
     out = tmp_path / "sweep"
     r = _cli(
@@ -363,6 +364,7 @@ def test_fe_static_to_dict_keys_are_fem_solve_json(coarse_model):
     assert sum(d["strain_energy_fraction"].values()) == pytest.approx(1.0, rel=1e-12)
 
 
+@pytest.mark.slow
 def test_fe_harmonic_response_is_harmonic_outputs(coarse_model):
     from isj.fem.dynamics import harmonic_outputs
 

@@ -108,6 +108,7 @@ def test_mesh_report(capsys):
     assert d["stiffness_bandwidth_rcm"] < d["stiffness_bandwidth"]
 
 
+@pytest.mark.slow
 def test_geometry_option_changes_the_model(capsys):
     _, out1, _ = run(capsys, ["fem", "solve", "--json", "--order", "1", *COARSE])
     _, out2, _ = run(
@@ -129,6 +130,7 @@ def test_modes_json_and_vtu(capsys, tmp_path):
     assert code == 2 and "--n" in err
 
 
+@pytest.mark.slow
 def test_sweep_writes_csv_npz_plot_and_guards(capsys, tmp_path):
     out = tmp_path / "sw"
     argv = ["sweep", "--out", str(out), "--n", "50", "--fe-checks", "1", "--order", "1", *COARSE, "--json"]
@@ -172,6 +174,7 @@ def test_entry_points_are_one_main():
     ]
 
 
+@pytest.mark.slow
 def test_python_dash_m_isj(tmp_path):
     import subprocess
     import sys
@@ -186,6 +189,7 @@ def test_python_dash_m_isj(tmp_path):
     assert r.returncode == 2 and r.stderr.strip().count("\n") == 0 and "--nu" in r.stderr
 
 
+@pytest.mark.slow
 def test_out_of_domain_warns_in_one_line_every_time(capsys):
     from isj.lumped.artifact import default_calibration
 
@@ -327,6 +331,7 @@ def test_sweep_with_nan_damping_ratios_never_passes(capsys, tmp_path, monkeypatc
     assert not list(tmp_path.iterdir())
 
 
+@pytest.mark.slow
 def test_sweep_files_replaced_as_a_set(capsys, tmp_path, monkeypatch):
     import isj.lumped.plots as plots
 

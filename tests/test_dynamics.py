@@ -219,6 +219,7 @@ def test_bad_method_is_refused():
         harmonic(cantilever(5 * B, (1, 1, 2), order=1), [1.0], MAT, method="lanczos")
 
 
+@pytest.mark.slow
 @needs_pardiso
 def test_harmonic_reuses_the_static_ordering(coarse_model):
     """After a static solve the direct harmonic solve reuses its ordering; same answer either way."""

@@ -242,6 +242,7 @@ def test_alpha_beta_in_the_ear_are_finite_with_the_isolated_sign(ear, joint):
         assert np.sign(getattr(r, f"{name}_ls_rad_per_pa")) == np.sign(v)
 
 
+@pytest.mark.slow
 def test_seven_cases_reuse_one_analysis_and_order_as_expected(ear):
     first = ear.static(Materials())
     solver = ear._solver

@@ -417,6 +417,7 @@ def test_held_out_errors_as_claimed(tmp_path):
 # ---- the report's sliding page ----------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_report_sliding_page_shows_lumped_beside_fe(tmp_path):
     """The sliding step's lumped columns are each joint's LumpedModel on the seven cases; the page's
     table prints them; the layer has none; the step's cache key sees each joint's calibration."""

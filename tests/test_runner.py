@@ -66,6 +66,7 @@ def test_design_key_is_canonical():
         design_key({"pedicle_e_pa": float("nan")}, s)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("kind", ["RuntimeError", "KeyboardInterrupt"])
 def test_resume_after_interruption(tmp_path, settings, kind):
     ds = designs(6)
@@ -107,6 +108,7 @@ def test_cache_hit_returns_identical_records(tmp_path, settings):
     assert stored.pop("sha256") == json_checksum(rec) and stored == rec  # the record plus its checksum
 
 
+@pytest.mark.slow
 def test_corrupt_entries_warn_and_recompute(tmp_path, settings):
     ds = designs(3)
     recs = run_designs(ds, fake_evaluate, settings, tmp_path / "cache", progress=False)
@@ -222,6 +224,7 @@ def test_fe_evaluate_design_linear_and_memoised():
         batch.evaluate_design(design, {**s1, "versions": {**s1["versions"], "fe_static": 0}})
 
 
+@pytest.mark.slow
 def test_fe_evaluator_through_the_runner(tmp_path):
     """fem.batch.evaluate_design pickles into a spawned worker and its results cache."""
     from isj.fem import batch

@@ -219,6 +219,7 @@ def test_cli_joint_json(capsys):
     assert "--joint" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_layer_shear_modulus_interpolates(coarse_model, layer_model):
     """A layer as stiff in shear as the cartilage is the bonded gap; softer layers flex more."""
     mu = Materials().gap_e_pa * lame_unit(Materials().nu)[1]

@@ -473,6 +473,7 @@ def fake_fast_ear(monkeypatch):
     return fake
 
 
+@pytest.mark.slow
 def test_transmission_cli_json_csv_and_switch(fake_fast_ear, capsys, tmp_path):
     argv = ["uq", "--samples", "2000", "--sobol-samples", "64", "--bootstrap", "10"]
     targs = ["--transmission-samples", "3000", "--transmission-sobol-samples", "64"]

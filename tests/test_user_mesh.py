@@ -72,6 +72,7 @@ def uncut(joint):
     return points, tets.copy(), joint.region, dict(faces)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("order", [1, 2])
 def test_round_trip_gives_the_built_in_alpha_and_beta(capsys, files, order):
     msh, toml = files

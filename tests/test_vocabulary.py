@@ -119,6 +119,7 @@ def test_lumped_ear_refuses_many_designs_for_one_response(lm):
 # ---- the FE models (the coarse test mesh) --------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_fe_joint_static_to_dict_and_modes(coarse_model):
     r = coarse_model.static(isj.Materials(gap_e_pa=7e6), 30.0)
     d = json.loads(json.dumps(r.to_dict()))
@@ -156,6 +157,7 @@ def test_fe_ear_static_to_dict_and_the_three_names(rigid_ear):
     assert f.shape == (2,) and 0 < f[0] <= f[1]
 
 
+@pytest.mark.slow
 def test_reduced_ear_static_to_dict_and_the_three_names(rigid_ear):
     rom = reduced_ear(rigid_ear, fmax_hz=5000.0)
     s = rom.static()
