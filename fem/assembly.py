@@ -68,13 +68,33 @@ class Pattern:
         return sp.csr_matrix((data, self.indices, self.indptr), shape=(self.n_dofs,) * 2)
 
 
+def _unique_inverse(keys: np.ndarray, bound: int) -> tuple[np.ndarray, np.ndarray]:
+    """``np.unique(keys, return_inverse=True)`` for keys in [0, ``bound``), the same arrays.
+
+    Each key is packed with its index into one int64 and sorted by value
+    (numpy's vectorised sort, several times faster here than the argsort inside
+    ``np.unique``); the index bits say where each sorted key came from.
+    """
+    shift = max(int(keys.size - 1).bit_length(), 1)
+    if bound <= 0 or (bound - 1).bit_length() + shift > 62:  # does not fit in one int64
+        return np.unique(keys, return_inverse=True)
+    packed = np.sort((keys << shift) | np.arange(keys.size, dtype=np.int64))
+    sorted_keys = packed >> shift
+    new = np.empty(keys.size, dtype=bool)
+    new[:1] = True
+    np.not_equal(sorted_keys[1:], sorted_keys[:-1], out=new[1:])
+    inv = np.empty(keys.size, dtype=np.intp)
+    inv[packed & ((1 << shift) - 1)] = np.cumsum(new) - 1
+    return sorted_keys[new], inv
+
+
 def build_pattern(space: Space) -> Pattern:
     """Sparsity pattern of the dof matrix, built from the node graph (9× smaller)."""
     cells = space.cells
     ne, nn = cells.shape
     nnodes = space.n_nodes
     keys = cells[:, :, None].astype(np.int64) * nnodes + cells[:, None, :]
-    uniq, inv = np.unique(keys.ravel(), return_inverse=True)
+    uniq, inv = _unique_inverse(keys.ravel(), nnodes * nnodes)
     itype = np.int32 if uniq.size < 2**31 else np.int64
     pair_row, pair_col = np.divmod(uniq, nnodes)
     deg = np.bincount(pair_row, minlength=nnodes)

@@ -36,7 +36,7 @@ import scipy.sparse as sp
 from isj.design import Geometry, Materials
 from isj.errors import InvalidParameter
 
-from .assembly import combine, lame_unit
+from .assembly import lame_unit
 
 #: The joint variants.
 JOINTS: tuple[str, ...] = ("bonded", "sliding", "layer")
@@ -234,14 +234,44 @@ def layer_gap_energy_change(model, materials: Materials, u: np.ndarray) -> float
 # --------------------------------------------------------------------------- the split
 
 
+def _region_matrix(pattern, rm):
+    """(where, CSR pattern) of the entries region ``rm`` touches, cached on ``rm``.
+
+    ``where[p, k, l]`` is the CSR position of entry (k, l) of the region's block
+    p, laid out as in the full pattern (:func:`fem.assembly.build_pattern`) but
+    with only the region's node pairs: each row keeps the full pattern's column
+    order, so K_r u adds the same nonzero terms in the same order as the
+    full-pattern K_r, which differs only by exact zeros (the same bits, without
+    a full-pattern array per region).
+    """
+    cached = getattr(rm, "_csr", None)
+    if cached is None:
+        row, col = pattern.pair_row[rm.pairs], pattern.pair_col[rm.pairs]  # pairs sorted by (row, col)
+        deg = np.bincount(row, minlength=pattern.n_dofs // 3)
+        nptr = np.concatenate([[0], np.cumsum(deg)])
+        k = np.arange(3)
+        base = 9 * nptr[row] + 3 * (np.arange(row.size) - nptr[row])
+        where = base[:, None, None] + 3 * k[:, None] * deg[row][:, None, None] + k[None, :]
+        itype = pattern.indices.dtype
+        indices = np.empty(where.size, dtype=itype)
+        indices[where] = (3 * col[:, None, None] + k[None, None, :]).astype(itype)
+        indptr = np.concatenate([[0], np.cumsum(np.repeat(3 * deg, 3))]).astype(itype)
+        cached = (where.ravel(), indices, indptr)
+        object.__setattr__(rm, "_csr", cached)
+    return cached
+
+
 def region_forces(model, materials: Materials, u: np.ndarray) -> dict[str, np.ndarray]:
     """Internal nodal forces K_r u (N, full dof vectors) of each region."""
     lam, mu = lame_unit(materials.nu)
+    n = model.pattern.n_dofs
     out = {}
     for r, rm in model.regions.items():
         e = materials.youngs(r)
-        data = combine(model.pattern, {r: rm}, {r: (e * lam, e * mu)})
-        f = model.pattern.matrix(data) @ u
+        where, indices, indptr = _region_matrix(model.pattern, rm)
+        data = np.empty(where.size)
+        data[where] = ((e * lam) * rm.lam + (e * mu) * rm.mu).ravel()  # the blocks as combine() forms them
+        f = sp.csr_matrix((data, indices, indptr), shape=(n, n)) @ u
         if r == "gap" and model.joint == "layer":
             layer_correction(model, materials)
             f = f - _layer_drop(model, materials) * _blocks_apply(
