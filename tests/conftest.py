@@ -61,10 +61,21 @@ SLOW_FIXTURES = frozenset({"report", "cold_cli_report", "coarse_fast_ear"})
 
 
 def pytest_collection_modifyitems(config, items):
-    """Tests that use a :data:`SLOW_FIXTURES` fixture are marked slow (``-m "not slow"`` skips them)."""
+    """Tests that use a :data:`SLOW_FIXTURES` fixture are marked slow (``-m "not slow"`` skips them).
+
+    Each test also gets an ``xdist_group`` for ``pytest -n 2 --dist loadgroup`` (the README's
+    test command): its file, so that a module's fixtures are made once, except that every file
+    with a user of a :data:`SLOW_FIXTURES` fixture joins that fixture's group, so that one worker
+    makes it and the others never do.
+    """
+    group_of_file = {}
     for item in items:
-        if SLOW_FIXTURES.intersection(getattr(item, "fixturenames", ())):
+        used = sorted(SLOW_FIXTURES.intersection(getattr(item, "fixturenames", ())))
+        if used:
             item.add_marker(pytest.mark.slow)
+            group_of_file.setdefault(item.path, used[0])
+    for item in items:
+        item.add_marker(pytest.mark.xdist_group(group_of_file.get(item.path, item.path.name)))
 
 
 @pytest.fixture(scope="session", autouse=True)
