@@ -57,7 +57,15 @@ def register(sub) -> None:
     """Add ``isj fem`` and its commands to the top-level subparsers ``sub``."""
     fem = sub.add_parser("fem", help="the finite-element verifier")
     fsub = fem.add_subparsers(dest="fem_command", required=True, parser_class=c.Parser)
+    _add_solve(fsub)
+    _add_cases(fsub)
+    _add_modes(fsub)
+    _add_mesh(fsub)
+    _add_convergence(fsub)
 
+
+def _add_solve(fsub) -> None:
+    """``isj fem solve`` and its options."""
     p = fsub.add_parser("solve", help="static solve of one design")
     c.add_design_options(p)
     c.add_mesh_options(p)
@@ -82,6 +90,9 @@ def register(sub) -> None:
     c.add_json_option(p)
     p.set_defaults(func=solve)
 
+
+def _add_cases(fsub) -> None:
+    """``isj fem cases`` and its options."""
     p = fsub.add_parser("cases", help="the seven thesis cases")
     c.nu_option(p)
     c.pressure_option(p, "the incus")
@@ -91,6 +102,9 @@ def register(sub) -> None:
     c.add_json_option(p, "a JSON list")
     p.set_defaults(func=cases)
 
+
+def _add_modes(fsub) -> None:
+    """``isj fem modes`` and its options."""
     p = fsub.add_parser("modes", help="lowest natural frequencies and mode shapes")
     c.add_design_options(p)
     c.add_mesh_options(p)
@@ -102,6 +116,9 @@ def register(sub) -> None:
     c.add_json_option(p)
     p.set_defaults(func=modes)
 
+
+def _add_mesh(fsub) -> None:
+    """``isj fem mesh`` and its options."""
     p = fsub.add_parser("mesh", help="mesh quality and stiffness bandwidth (thesis 6.5)")
     c.add_mesh_options(p)
     p.add_argument(
@@ -126,6 +143,9 @@ def register(sub) -> None:
     c.add_json_option(p)
     p.set_defaults(func=mesh)
 
+
+def _add_convergence(fsub) -> None:
+    """``isj fem convergence`` and its options."""
     p = fsub.add_parser("convergence", help="pedicle cantilever against Timoshenko")
     p.add_argument("--direction", choices=("x", "y"), help="direction of the shear load (cantilever)")
     p.add_argument(

@@ -29,6 +29,19 @@ def _power_of_two(name: str, lo: int, hi: int):
 
 def register(sub) -> None:
     """Add ``isj uq`` to the top-level subparsers ``sub``."""
+    p = sub.add_parser(
+        "uq", help="uncertainty of the moduli: Monte Carlo of alpha, beta, beta/alpha; Sobol' indices"
+    )
+    _add_sampling_options(p)
+    _add_model_options(p)
+    _add_transmission_options(p)
+    _add_output_options(p)
+    p.set_defaults(func=uq)
+
+
+def _add_sampling_options(p) -> None:
+    """The distributions' file and the draws: ``--config``, ``--samples``, ``--sobol-samples``,
+    ``--bootstrap``, ``--seed``."""
     from isj.studies.uq_inputs import (
         BOOTSTRAP_RANGE,
         DEFAULT_BOOTSTRAP,
@@ -38,11 +51,7 @@ def register(sub) -> None:
         SEED_RANGE,
         SOBOL_SAMPLES_RANGE,
     )
-    from isj.validate import TRANSMISSION_SAMPLES_RANGE, TRANSMISSION_SOBOL_SAMPLES_RANGE
 
-    p = sub.add_parser(
-        "uq", help="uncertainty of the moduli: Monte Carlo of alpha, beta, beta/alpha; Sobol' indices"
-    )
     p.add_argument(
         "--config",
         metavar="FILE",
@@ -75,6 +84,10 @@ def register(sub) -> None:
         type=c.int_option("--seed", *SEED_RANGE),
         help=f"seed of the draws, the Sobol' points and the bootstrap, in [0, {SEED_RANGE[1]}] (default 0)",
     )
+
+
+def _add_model_options(p) -> None:
+    """The model the draws go through: ``--evaluator``, ``--compare-surrogate``."""
     p.add_argument(
         "--evaluator",
         choices=("lumped", "surrogate"),
@@ -89,6 +102,12 @@ def register(sub) -> None:
         help="also run the Monte Carlo draws inside the surrogate's domain through both models and "
         "report P(beta/alpha > 1) for each and their largest differences",
     )
+
+
+def _add_transmission_options(p) -> None:
+    """ΔH_V through the fast ear: ``--transmission`` and its sample counts."""
+    from isj.validate import TRANSMISSION_SAMPLES_RANGE, TRANSMISSION_SOBOL_SAMPLES_RANGE
+
     p.add_argument(
         "--transmission",
         action=argparse.BooleanOptionalAction,
@@ -111,6 +130,10 @@ def register(sub) -> None:
         help="Saltelli base samples of Delta H_V, a power of 2 in "
         f"[{TRANSMISSION_SOBOL_SAMPLES_RANGE[0]}, {TRANSMISSION_SOBOL_SAMPLES_RANGE[1]}] (default 1024)",
     )
+
+
+def _add_output_options(p) -> None:
+    """The load, the calibration and where the results go."""
     c.pressure_option(p)
     c.add_calibration_option(p)
     p.add_argument(
@@ -121,7 +144,6 @@ def register(sub) -> None:
         "as a whole)",
     )
     c.add_json_option(p)
-    p.set_defaults(func=uq)
 
 
 def _csv(header: str, rows) -> str:
