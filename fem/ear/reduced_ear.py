@@ -402,49 +402,13 @@ def reduced_ear(
     t0 = time.perf_counter()
     parts = ear_parts(model, materials, ear_materials, masses)
     t1 = time.perf_counter()
-    if model.joint is not None:
-        level1 = condense_joint(parts, model, joint_enrich)
-    else:
-        n = model.n_dofs
-        z = np.zeros((0, 0))
-        level1 = CondensedEar(
-            parts.stiffness,
-            parts.mass,
-            parts.dashpots,
-            parts.load,
-            np.arange(n),
-            np.zeros(0, int),
-            np.zeros(0, int),
-            z,
-            z,
-            n,
-        )
+    level1 = _level1(parts, model, joint_enrich)
     t2 = time.perf_counter()
     V, info = shell_basis(level1, fmax_hz, n_shifts)
     t3 = time.perf_counter()
-
-    def project(A, W):
-        t = np.flatnonzero(_touched(A, W.shape[0]))  # most parts act on few dofs: only those rows
-        A = sp.csr_matrix(A)[t][:, t]
-        return W[t].T @ np.asarray(A @ W[t])
-
-    groups = {
-        g: {k: project(A, V) for k, A in getattr(level1, g).items()}
-        for g in ("stiffness", "mass", "dashpots")
-    }
-    load, rows = V.T @ level1.load, level1.restrict(output_rows(model)) @ V
-    modal_interiors(groups, load, rows, info["interior"])
-    asym = 0.0
-    for g in groups.values():
-        for name, P in g.items():
-            asym = max(asym, abs(P - P.T).max() / max(abs(P).max(), 1e-300))
-            g[name] = 0.5 * (P + P.T)  # symmetric to rounding, as every part
+    groups, load, rows, asym = _projected(level1, V, info, model)
     k = info["kept_dofs"]
-    off = max(
-        np.abs(P[k:, k:] - np.diag(np.diagonal(P[k:, k:]))).max(initial=0.0) / max(abs(P).max(), 1e-300)
-        for g in groups.values()
-        for P in g.values()
-    )
+    off = _interior_off_diagonal(groups, k)
     out = ReducedEar(
         **groups,
         load=load,
@@ -471,6 +435,59 @@ def reduced_ear(
         },
     }
     return out
+
+
+def _level1(parts, model, joint_enrich) -> CondensedEar:
+    """The ear with its joint condensed onto the bodies, or the rigid ear's parts as they are."""
+    if model.joint is not None:
+        return condense_joint(parts, model, joint_enrich)
+    n = model.n_dofs
+    z = np.zeros((0, 0))
+    return CondensedEar(
+        parts.stiffness,
+        parts.mass,
+        parts.dashpots,
+        parts.load,
+        np.arange(n),
+        np.zeros(0, int),
+        np.zeros(0, int),
+        z,
+        z,
+        n,
+    )
+
+
+def _projected(level1, V, info, model) -> tuple[dict, np.ndarray, np.ndarray, float]:
+    """(parts, load, output rows, largest relative asymmetry) on the basis ``V``: each shell's
+    interior made modal and every part symmetrised (its asymmetry was rounding)."""
+
+    def project(A, W):
+        t = np.flatnonzero(_touched(A, W.shape[0]))  # most parts act on few dofs: only those rows
+        A = sp.csr_matrix(A)[t][:, t]
+        return W[t].T @ np.asarray(A @ W[t])
+
+    groups = {
+        g: {k: project(A, V) for k, A in getattr(level1, g).items()}
+        for g in ("stiffness", "mass", "dashpots")
+    }
+    load, rows = V.T @ level1.load, level1.restrict(output_rows(model)) @ V
+    modal_interiors(groups, load, rows, info["interior"])
+    asym = 0.0
+    for g in groups.values():
+        for name, P in g.items():
+            asym = max(asym, abs(P - P.T).max() / max(abs(P).max(), 1e-300))
+            g[name] = 0.5 * (P + P.T)  # symmetric to rounding, as every part
+    return groups, load, rows, asym
+
+
+def _interior_off_diagonal(groups: dict, k: int) -> float:
+    """The largest off-diagonal entry of the modal interiors (past the ``k`` kept dofs), relative
+    to each part's largest: 0 to rounding when the interiors are diagonal."""
+    return max(
+        np.abs(P[k:, k:] - np.diag(np.diagonal(P[k:, k:]))).max(initial=0.0) / max(abs(P).max(), 1e-300)
+        for g in groups.values()
+        for P in g.values()
+    )
 
 
 # ---------------------------------------------------------------------------- checks
