@@ -329,14 +329,6 @@ def condense_joint(
     inJ = (fq >= model.off_joint) & (fq < model.off_body)
     J, R = np.flatnonzero(inJ), np.flatnonzero(~inJ)
     B = np.searchsorted(fq, np.concatenate([model.body_dofs, model.stapes_dofs]))
-    b = np.searchsorted(R, B)
-    nJ = J.size
-
-    def lifted(cols_j):  # (n_q, 12 + k): Ψ's columns with B's unit dofs, then interior columns
-        V = np.zeros((fq.size, cols_j.shape[1]))
-        V[J] = cols_j
-        V[B, np.arange(12)] = 1.0
-        return V
 
     K = parts.total_stiffness()
     KJ = K[J]
@@ -347,26 +339,45 @@ def condense_joint(
     try:
         solver.factor(KJJ)
         t1 = time.perf_counter()
-        psi = -np.asarray(solver.solve(KJ[:, B].toarray())).reshape(nJ, 12)
-        Vpsi = lifted(psi)
-        rhs = []
-        if "mass" in enrich or "mass2" in enrich:
-            rhs.append((parts.total_mass() @ Vpsi)[J])
-        if "damping" in enrich:
-            # rigid motions of both bodies strain nothing: the stapes's six columns span the change
-            rhs += [(parts.stiffness[r] @ Vpsi[:, 6:])[J] for r in model.joint.regions]
-        X = np.asarray(solver.solve(np.hstack(rhs))).reshape(nJ, -1) if rhs else np.zeros((nJ, 0))
-        MJJ = parts.total_mass()[J][:, J] if {"mass2", "cross"} & set(enrich) else None
-        if "mass2" in enrich:  # the next inertia correction of the static shapes
-            X = np.hstack([X, np.asarray(solver.solve(MJJ @ X[:, :12])).reshape(nJ, 12)])
-        if "cross" in enrich and "damping" in enrich:  # inertia of the loss factors' corrections
-            Xd = X[:, 12 if "mass" in enrich else 0 :][:, : 6 * len(model.joint.regions)]
-            X = np.hstack([X, np.asarray(solver.solve(MJJ @ Xd)).reshape(nJ, -1)])
+        psi, X = _static_shapes_and_interior(solver, KJ[:, B], parts, model, J, B, enrich)
     finally:
         if hasattr(solver, "free"):
             solver.free()
     t2 = time.perf_counter()
     phi = orthonormalize(X, np.sqrt(np.abs(parts.total_mass().diagonal()[J])), tol)
+    out = _level1_parts(parts, model, J, R, B, psi, phi)
+    out.timings_s = {"factor": t1 - t0, "solves": t2 - t1, "project": time.perf_counter() - t2}
+    return out
+
+
+def _static_shapes_and_interior(solver, KJB, parts, model, J, B, enrich) -> tuple[np.ndarray, np.ndarray]:
+    """(Ψ, X): the joint interior's static shapes for unit motions of the bodies' 12 dofs, and the
+    interior vectors ``enrich`` asks for, solved with ``solver`` (K_JJ factored)."""
+    fq, nJ = model.free, J.size
+    psi = -np.asarray(solver.solve(KJB.toarray())).reshape(nJ, 12)
+    Vpsi = np.zeros((fq.size, 12))  # Ψ lifted to the free dofs, with B's unit dofs
+    Vpsi[J] = psi
+    Vpsi[B, np.arange(12)] = 1.0
+    rhs = []
+    if "mass" in enrich or "mass2" in enrich:
+        rhs.append((parts.total_mass() @ Vpsi)[J])
+    if "damping" in enrich:
+        # rigid motions of both bodies strain nothing: the stapes's six columns span the change
+        rhs += [(parts.stiffness[r] @ Vpsi[:, 6:])[J] for r in model.joint.regions]
+    X = np.asarray(solver.solve(np.hstack(rhs))).reshape(nJ, -1) if rhs else np.zeros((nJ, 0))
+    MJJ = parts.total_mass()[J][:, J] if {"mass2", "cross"} & set(enrich) else None
+    if "mass2" in enrich:  # the next inertia correction of the static shapes
+        X = np.hstack([X, np.asarray(solver.solve(MJJ @ X[:, :12])).reshape(nJ, 12)])
+    if "cross" in enrich and "damping" in enrich:  # inertia of the loss factors' corrections
+        Xd = X[:, 12 if "mass" in enrich else 0 :][:, : 6 * len(model.joint.regions)]
+        X = np.hstack([X, np.asarray(solver.solve(MJJ @ Xd)).reshape(nJ, -1)])
+    return psi, X
+
+
+def _level1_parts(parts, model, J, R, B, psi, phi) -> CondensedEar:
+    """Every part of the ear on (the rest R, the interior coordinates z), the bodies' dofs B
+    lifted through Ψ and the joint interior spanned by Ψ and Φ."""
+    b = np.searchsorted(R, B)
     idx = np.concatenate([J, B])
     nR, m = R.size, phi.shape[1]
     W = np.block([[psi, phi], [np.eye(12), np.zeros((12, m))]])  # the lift of (x_b, z) to q[J ∪ B]
@@ -385,7 +396,7 @@ def condense_joint(
 
     load = np.concatenate([parts.load[R], phi.T @ parts.load[J]])
     load[b] += psi.T @ parts.load[J]  # zero for the pressure load, which acts on the drum only
-    out = CondensedEar(
+    return CondensedEar(
         stiffness={k: level1(k, A) for k, A in parts.stiffness.items()},
         mass={k: level1(k, A) for k, A in parts.mass.items()},
         dashpots={k: level1(k, A) for k, A in parts.dashpots.items()},
@@ -395,10 +406,8 @@ def condense_joint(
         b=b,
         psi=psi,
         phi=phi,
-        n_q=fq.size,
+        n_q=model.free.size,
     )
-    out.timings_s = {"factor": t1 - t0, "solves": t2 - t1, "project": time.perf_counter() - t2}
-    return out
 
 
 @contextlib.contextmanager
