@@ -9,7 +9,9 @@ same result as before, and a sound entry written again.
 """
 
 import json
+import struct
 import warnings
+import zipfile
 
 import numpy as np
 import pytest
@@ -59,6 +61,21 @@ def damage(path, how: str) -> None:
         i = int(np.flatnonzero(flat)[0])
         flat[i] *= 1.001
         np.savez(path, **arrays)
+
+
+def flip_a_stored_byte(path) -> None:
+    """Flip one byte in the middle of the largest array stored in the NPZ at ``path``.
+
+    A byte chosen by its place in the file alone may land in a zip header field that no
+    reader checks (a member's modification date), leaving every array whole.
+    """
+    with zipfile.ZipFile(path) as z:
+        member = max(z.infolist(), key=lambda info: info.compress_size)
+    data = bytearray(path.read_bytes())
+    name_len, extra_len = struct.unpack_from("<HH", data, member.header_offset + 26)
+    start = member.header_offset + 30 + name_len + extra_len  # after the member's local header
+    data[start + member.compress_size // 2] ^= 0xFF
+    path.write_bytes(bytes(data))
 
 
 def one_warning_naming(caught, path, how: str) -> None:

@@ -15,6 +15,7 @@ from pathlib import Path
 import pytest
 from conftest import SMALL_REPORT
 from isj.fem import solvers
+from test_cache_entries import flip_a_stored_byte
 
 from isj.errors import InvalidParameter
 
@@ -520,9 +521,7 @@ def test_damaged_or_stale_rom_build_steps_are_never_used(tmp_path, monkeypatch):
     files = sorted(folder.glob("step-*.npz"))
     assert len(files) == 6
     # step 4 damaged: steps 1-3 are taken, 4 reported and deleted, 5 and 6 (chained to it) dropped
-    data = bytearray(files[3].read_bytes())
-    data[len(data) // 2] ^= 0xFF
-    files[3].write_bytes(bytes(data))
+    flip_a_stored_byte(files[3])
     with pytest.warns(CorruptCacheEntry, match=r"surrogate greedy step cache entry .*step-0004\.npz"):
         again = reduced_model(order=1, resolution=0.35, **_SMALL_ROM)
     assert again.meta["resumed_snapshots"] == 3

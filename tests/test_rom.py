@@ -12,6 +12,7 @@ import sys
 import numpy as np
 import pytest
 import scipy.sparse.linalg as spla
+from test_cache_entries import flip_a_stored_byte
 
 from isj.cachefile import read_npz_entry
 from isj.errors import CorruptCacheEntry, InvalidParameter
@@ -268,9 +269,7 @@ def test_cache_round_trip_and_damaged_entry(rom_cache, rom):
     first = reduced_model(order=ORDER, resolution=RESOLUTION, **small)
     (entry,) = set(rom_cache_dir().glob("rom-*.npz")) - before
     read_npz_entry(entry)  # sound before the damage
-    data = bytearray(entry.read_bytes())
-    data[len(data) // 2] ^= 0xFF
-    entry.write_bytes(bytes(data))
+    flip_a_stored_byte(entry)
     with pytest.warns(CorruptCacheEntry):
         second = reduced_model(order=ORDER, resolution=RESOLUTION, **small)
     assert np.array_equal(second.evaluate(E)["alpha_rad"], first.evaluate(E)["alpha_rad"])
