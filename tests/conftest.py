@@ -14,6 +14,24 @@ import sys
 
 import pytest
 
+
+def _share_the_cores_between_workers() -> None:
+    """Under ``pytest -n N``, give each worker's solvers and BLAS its share of the cores.
+
+    N workers each running the machine's full thread count would put N times as many threads
+    to work as there are cores. Set before any test imports numpy; a value already set wins,
+    and subprocesses inherit it.
+    """
+    workers = os.environ.get("PYTEST_XDIST_WORKER_COUNT")
+    if not workers:
+        return
+    threads = str(max(1, len(os.sched_getaffinity(0)) // int(workers)))
+    for name in ("ISJ_SOLVER_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
+        os.environ.setdefault(name, threads)
+
+
+_share_the_cores_between_workers()
+
 #: Optional backends: name → (what it is, is it importable here).
 OPTIONAL_BACKENDS = {
     "pardiso": "PARDISO sparse solver (pypardiso; x86-64 only)",
@@ -60,22 +78,33 @@ def pytest_terminal_summary(terminalreporter):
 SLOW_FIXTURES = frozenset({"report", "cold_cli_report", "coarse_fast_ear"})
 
 
+#: The longest groups (measured with ``--durations``, docs/developer/index.md), sent to the
+#: workers first: one started last would leave the other worker idle while it runs.
+LONG_GROUPS = ("cold_cli_report", "test_reliability.py", "report", "coarse_fast_ear")
+
+
+@pytest.hookimpl(tryfirst=True)  # before xdist's own hook, which reads the groups
 def pytest_collection_modifyitems(config, items):
     """Tests that use a :data:`SLOW_FIXTURES` fixture are marked slow (``-m "not slow"`` skips them).
 
     Each test also gets an ``xdist_group`` for ``pytest -n 2 --dist loadgroup`` (the README's
-    test command): its file, so that a module's fixtures are made once, except that every file
-    with a user of a :data:`SLOW_FIXTURES` fixture joins that fixture's group, so that one worker
-    makes it and the others never do.
+    test command): the :data:`SLOW_FIXTURES` fixture it uses, so that one worker makes that
+    fixture and the other never does, or else its file, so that a module's fixtures are made
+    once. A module whose fixtures are used both by users of a :data:`SLOW_FIXTURES` fixture
+    and by other tests names its group itself (``pytestmark = pytest.mark.xdist_group(...)``).
+    The :data:`LONG_GROUPS` come first (``--no-loadscope-reorder`` keeps this order).
     """
-    group_of_file = {}
+    group = {}
     for item in items:
         used = sorted(SLOW_FIXTURES.intersection(getattr(item, "fixturenames", ())))
         if used:
             item.add_marker(pytest.mark.slow)
-            group_of_file.setdefault(item.path, used[0])
-    for item in items:
-        item.add_marker(pytest.mark.xdist_group(group_of_file.get(item.path, item.path.name)))
+        own = [m.args[0] for m in item.iter_markers("xdist_group")]  # a module's pytestmark
+        group[item] = own[0] if own else used[0] if used else item.path.name
+        if not own:
+            item.add_marker(pytest.mark.xdist_group(group[item]))
+    rank = {name: i for i, name in enumerate(LONG_GROUPS)}
+    items.sort(key=lambda item: rank.get(group[item], len(rank)))
 
 
 @pytest.fixture(scope="session", autouse=True)

@@ -26,7 +26,9 @@ from isj.design import Materials
 from isj.design_space import DesignSpace
 from isj.errors import InvalidParameter
 
-pytestmark = pytest.mark.slow  # builds a fast ear on the coarse mesh (module fixture)
+# builds a fast ear on the coarse mesh; the module fixtures (the FE reductions) are shared by
+# users of coarse_fast_ear and by one test that is not, so the whole file joins that group
+pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("coarse_fast_ear")]
 
 #: The targets to 10 kHz (issue 24): H_V (dB, degrees), ΔH_V (dB, degrees).
 HV_DB, HV_DEG, DHV_DB, DHV_DEG = 0.5, 3.0, 0.1, 1.0
