@@ -685,6 +685,7 @@ def test_a_killed_report_resumes_redoes_nothing_and_damaged_ear_entries_are_reco
     tmp_path, cold_cli_report
 ):
     import json
+    import shutil
     import signal
 
     # the uninterrupted run: tests/conftest.py's small report, cold, in a fresh process
@@ -695,9 +696,11 @@ def test_a_killed_report_resumes_redoes_nothing_and_damaged_ear_entries_are_reco
             os.environ, ISJ_FE_CACHE_DIR=str(tmp_path / name / "fe"), ISJ_CACHE_DIR=str(tmp_path / name / "m")
         )
 
-    # killed (SIGKILL) once four steps are stored
+    # killed (SIGKILL) once four steps are stored; meshes and FE results cold, the surrogate
+    # taken from the cold run (tests/test_determinism.py's warm run checks it is read back whole)
     out, fe = tmp_path / "R", tmp_path / "b" / "fe"
     steps = fe / "report"
+    shutil.copytree(cold_cli_report["caches"] / "fe" / "rom", fe / "rom")
     cmd = ["report", "--config", str(case), "--out", str(out), "-q"]
     proc = subprocess.Popen(
         [sys.executable, "-m", "isj", *cmd],
