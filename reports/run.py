@@ -9,7 +9,8 @@ a killed run left, :func:`isj.atomic.replace_dir`). The output folder gets:
 
 - ``report.pdf``;
 - ``data/<step>.json`` (every number of a section) and ``data/*.csv`` (tables);
-- ``resolved_config.toml``, ``run.json`` (versions, git revision, timings);
+- ``resolved_config.toml``, ``run.json`` (versions, git revision, timings, what the PDF was
+  made from: a rerun with the same inputs into the same folder keeps the PDF, bit for bit);
 - ``base.vtu``, the base design for ParaView.
 
 Bad configuration is rejected by :func:`reports.config.load_config` before
@@ -21,6 +22,7 @@ a geometry and mesh whose model would not fit in memory
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import shutil
@@ -29,6 +31,7 @@ import time
 from pathlib import Path
 
 from isj.atomic import atomic_write_json, atomic_write_text, check_out_folder, replace_dir
+from isj.cachefile import canonical_json
 from isj.caches import fe_cache_dir
 
 from .config import ReportConfig
@@ -75,6 +78,37 @@ def _reuse_vtu(out: Path, model_key: str, target: Path) -> bool:
         return True
     except (OSError, ValueError, AttributeError):
         return False
+
+
+def _pdf_key(config: ReportConfig, step_keys: dict, provenance: dict) -> str:
+    """What the PDF is made from: every step's key, the resolved configuration (page 1 prints
+    it), the provenance (versions, git revision, date: the pages' footers print them) and the
+    text of this package's modules, which lay out the pages."""
+    h = hashlib.sha256(canonical_json([step_keys, config.to_toml(), provenance]).encode())
+    for path in sorted(Path(__file__).resolve().parent.glob("*.py")):
+        h.update(path.name.encode() + b"\0" + path.read_bytes())
+    return h.hexdigest()[:24]
+
+
+def _file_sha256(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def _reuse_pdf(out: Path, pdf_key: str, target: Path) -> list[str] | None:
+    """Link the previous report's PDF into ``target`` if it was made from the same inputs and is
+    whole (its sha256 as recorded); returns its page titles, or None to lay the PDF out again."""
+    try:
+        previous = json.loads((out / "run.json").read_text())
+        pdf = previous.get("pdf", {})
+        if pdf.get("key") != pdf_key or _file_sha256(out / "report.pdf") != pdf.get("sha256"):
+            return None
+        try:
+            os.link(out / "report.pdf", target)  # the old folder keeps its own name for it
+        except OSError:
+            shutil.copy2(out / "report.pdf", target)
+        return list(previous["pages"])
+    except (OSError, ValueError, AttributeError, KeyError, TypeError):
+        return None
 
 
 def load_calibration(config: ReportConfig):
@@ -176,9 +210,13 @@ def _run(config: ReportConfig, out: Path, staging: Path, verbosity: int, cache_d
         "date": time.strftime("%Y-%m-%d"),
         "calibration": results["calibration"]["source"],
     }
-    say("writing report.pdf ...")
     t0 = time.perf_counter()
-    pages = pdf.write_report(out / "report.pdf", config, results, arrays, provenance)
+    pdf_key = _pdf_key(config, keys, provenance)
+    pages = _reuse_pdf(final, pdf_key, out / "report.pdf")  # a warm rerun: the same bytes
+    pdf_reused = pages is not None
+    if not pdf_reused:
+        say("writing report.pdf ...")
+        pages = pdf.write_report(out / "report.pdf", config, results, arrays, provenance)
     timings["pdf"] = time.perf_counter() - t0
     timings["total"] = time.perf_counter() - t_start
     atomic_write_json(
@@ -189,6 +227,7 @@ def _run(config: ReportConfig, out: Path, staging: Path, verbosity: int, cache_d
             "cached_steps": cached,
             "pages": pages,
             "step_keys": keys,
+            "pdf": {"key": pdf_key, "sha256": _file_sha256(out / "report.pdf"), "reused": pdf_reused},
         },
     )
     say(f"wrote {final / 'report.pdf'} ({len(pages)} pages) in {timings['total']:.1f} s", 1)

@@ -40,13 +40,44 @@ def test_pdf_has_the_pages_in_order(report):
         assert title in text
 
 
-def test_pdf_is_reproducible_without_creation_date(report):
+def test_pdf_is_reproducible_without_creation_date(report, tmp_path):
     path = report["dir"] / "report.pdf"
     meta = pypdf.PdfReader(path).metadata or {}
     assert "/CreationDate" not in meta
-    # the same inputs give the same bytes (the date on the pages differs only across midnight)
-    if report["first"]["provenance"]["date"] == report["second"]["provenance"]["date"]:
-        assert path.read_bytes() == report["first_bytes"]
+    # laid out again from the cached steps' results: the same bytes (the date on the pages
+    # differs only across midnight)
+    res, again = report["second"], tmp_path / "again.pdf"
+    pdf.write_report(again, report["config"], res["steps"], res["arrays"], res["provenance"])
+    if report["first"]["provenance"]["date"] == res["provenance"]["date"]:
+        assert again.read_bytes() == report["first_bytes"]
+
+
+def test_a_warm_rerun_keeps_the_pdf_and_a_damaged_one_is_laid_out_again(report, tmp_path, monkeypatch):
+    import shutil
+
+    import isj.reports.run as run_mod
+
+    same_date = report["first"]["provenance"]["date"] == report["second"]["provenance"]["date"]
+    second = json.loads((report["dir"] / "run.json").read_text())  # the fixture's warm rerun
+    assert second["pdf"]["reused"] and len(second["cached_steps"]) == len(run_mod.STEPS)
+    assert (report["dir"] / "report.pdf").read_bytes() == report["first_bytes"] or not same_date
+    # the previous PDF cut short: the next run lays it out again, to the same bytes
+    out = tmp_path / "out"
+    shutil.copytree(report["dir"], out)
+    whole = (out / "report.pdf").read_bytes()
+    (out / "report.pdf").write_bytes(whole[: len(whole) // 2])
+    monkeypatch.setenv("ISJ_FE_CACHE_DIR", str(report["fe_cache"]))
+    run_mod.run_report(report["config"], out, verbosity=0)
+    third = json.loads((out / "run.json").read_text())
+    assert not third["pdf"]["reused"] and third["pdf"]["key"] == second["pdf"]["key"]
+    assert (out / "report.pdf").read_bytes() == whole or not same_date
+    # what the PDF is made from: every step key, the configuration and the provenance
+    cfg, keys, prov = report["config"], second["step_keys"], second["provenance"]
+    key = run_mod._pdf_key(cfg, keys, prov)
+    assert key == second["pdf"]["key"]
+    assert run_mod._pdf_key(cfg, keys | {"uq": "another"}, prov) != key
+    assert run_mod._pdf_key(cfg, keys, prov | {"date": "1999-12-31"}) != key
+    assert run_mod._pdf_key(load_config(report["case"], ["guard.seed=1"]), keys, prov) != key
 
 
 def test_pdf_text_carries_the_numbers_of_the_json(report):
