@@ -384,7 +384,8 @@ def _ear_summary(r) -> dict:
     return {k: d[k] for k in keep}
 
 
-#: Report sections in order: (name, function, the configuration sections it reads).
+#: Report sections in order: (name, function, the configuration sections it reads, or single
+#: keys of one, "section.key").
 STEPS = (
     ("model", model_step, ("design", "geometry", "mesh")),
     ("cases", cases_step, ("design", "geometry", "mesh")),
@@ -397,7 +398,9 @@ STEPS = (
     ("load_path", load_path_step, ("design", "geometry", "ear", "sweep", "transmission")),
     ("sliding", sliding_step, ("design", "geometry", "mesh", "sliding")),
     ("guard", guard_step, ("design", "geometry", "mesh", "guard")),
-    ("uq", uq_step, ("design", "geometry", "mesh", "ear", "sweep", "transmission", "uq")),
+    # of [design] only the load: the moduli are drawn from their distributions and the rest are
+    # isj uq's defaults (tests/test_uq.py checks that no other [design] key changes the result)
+    ("uq", uq_step, ("design.pressure_pa", "geometry", "mesh", "ear", "sweep", "transmission", "uq")),
     # last: its FE geometries may push the report geometry's model out of fem.batch's memo
     ("geometry_trends", geometry_trends_step, ("design", "geometry", "mesh", "geometry_trends")),
 )
@@ -433,8 +436,12 @@ def step_inputs(ctx: Context, sections: tuple[str, ...], step=None) -> dict:
         out.pop("provenance", None)  # the date of a calibration does not change its numbers
         return out
 
+    def part(name: str):  # a section, or one key of it ("design.pressure_pa")
+        section, _, key = name.partition(".")
+        return d[section][key] if key else d[section]
+
     inputs = {
-        "config": {s: d[s] for s in sections},
+        "config": {s: part(s) for s in sections},
         "versions": step_versions(step),
         "calibration": numbers(ctx.calibration),
     }

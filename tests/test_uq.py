@@ -574,3 +574,38 @@ def test_report_page_carries_the_transmission_table():
     assert f"> 1 dB) = {p:.4f} +- {se:.4f}" in text
     assert f"{t['summary']['delta_h_v_db_5khz']['quantiles']['0.5']:+8.3f}" in text
     fig.canvas.draw()
+
+
+@pytest.mark.slow
+def test_report_uq_step_reads_no_design_key_but_the_pressure(tmp_path, monkeypatch):
+    """The uq step's cache key holds only ``design.pressure_pa`` of [design] (reports/steps.py):
+    every other [design] key changed at once leaves its result as it was, the pressure does not."""
+    import isj.fem.batch
+    import isj.fem.ear.fast_ear
+    import isj.fem.ear.middle_ear
+    from isj.lumped.artifact import default_calibration
+    from isj.reports.config import load_config
+    from isj.reports.steps import Context
+    from isj.reports.uq import uq_step
+
+    # the fast ear of the report's ear, without FE: the step's own code is what is checked
+    monkeypatch.setattr(isj.fem.batch, "shared_model", lambda settings: (None, None))
+    monkeypatch.setattr(isj.fem.ear.middle_ear, "MiddleEarModel", lambda **kw: None)
+    monkeypatch.setattr(isj.fem.ear.fast_ear, "fast_ear", lambda *a, **kw: _FakeFastEar())
+    case = tmp_path / "case.toml"
+    counts = "samples = 1000\nsobol_samples = 64\nbootstrap = 10\n"
+    case.write_text(f"[uq]\n{counts}transmission_samples = 1000\ntransmission_sobol_samples = 64\n")
+    base = load_config(case)
+    others = [k for k in base.design.CONFIG_KEYS if k != "pressure_pa"]
+    assert len(others) >= 6 and "nu" in others
+    changed = [f"design.{k}={getattr(base.design, k) * (0.9 if k == 'nu' else 1.5)!r}" for k in others]
+
+    def result(config):
+        return uq_step(Context(config, default_calibration(), tmp_path / "fe", progress=False))[0]
+
+    reference = result(base)
+    assert "transmission" in reference
+    again = result(load_config(case, changed))
+    assert json.dumps(again, sort_keys=True) == json.dumps(reference, sort_keys=True)
+    pressure = [f"design.pressure_pa={base.design.pressure_pa * 2!r}"]
+    assert result(load_config(case, pressure)) != reference
