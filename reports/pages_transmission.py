@@ -121,9 +121,21 @@ def fast_ear_lines(tr: dict) -> list[str]:
 
 def delta_page(fig, tr: dict, arrays: dict, lumped: dict, lumped_arrays: dict):
     """ΔH_V for every case (fast ear or FE), the pedicle's share, how the ear drives the joint (lumped)."""
-    f = arrays["freq_hz"]
-    cases = tr["cases"]
-    d = arrays["delta"]
+    axes = _delta_axes(fig, tr["cases"], arrays, lumped_arrays)
+    axes += _case_ratio_axes(fig, tr["cases"], arrays)
+    for ax in axes:
+        ax.tick_params(labelsize=6)
+        ax.grid(True, which="both", lw=0.3)
+        ax.set_xlabel("frequency (Hz)", fontsize=6)
+    text_block(fig, 0.04, 0.49, "\n".join(_delta_table(tr)), fontsize=5.6)
+    lp = lumped["load_path"]
+    text_block(fig, 0.04, 0.40, "\n".join(_load_path_table(lp)), fontsize=5.6)
+    text_block(fig, 0.07, 0.22, wrap(_delta_note(tr, lp), 112), fontsize=7)
+
+
+def _delta_axes(fig, cases: list[str], arrays: dict, lumped_arrays: dict) -> list:
+    """ΔH_V in dB and degrees and the pedicle's share per case; the lumped ear's ΔH_V dotted."""
+    f, d = arrays["freq_hz"], arrays["delta"]
     ax_m = fig.add_axes([0.12, 0.75, 0.36, 0.16])
     ax_p = fig.add_axes([0.58, 0.75, 0.36, 0.16])
     ax_s = fig.add_axes([0.12, 0.54, 0.36, 0.16])
@@ -139,26 +151,33 @@ def delta_page(fig, tr: dict, arrays: dict, lumped: dict, lumped_arrays: dict):
     ax_s.set_title("pedicle share |beta / (alpha + beta)|, whole ear", fontsize=8)
     ax_s.set_ylim(0, 1.5)
     ax_m.legend(fontsize=5.5, ncol=2)
+    return [ax_m, ax_p, ax_s]
+
+
+def _case_ratio_axes(fig, cases: list[str], arrays: dict) -> list:
+    """The pedicle's and the joint's own effect, the ratio of two cases' H_V, where the cases allow it."""
     named = (
         ("p3", "p12", "pedicle: p3 / p12"),
         ("j5c20", "base", "joint: j5c20 / base"),
         ("base_sliding", "base", "sliding / bonded joint"),
     )
     pairs = [(a, b, lab) for a, b, lab in named if a in cases and b in cases]
-    axes = [ax_m, ax_p, ax_s]
-    if pairs:  # the pedicle's and the joint's own effect, where the cases allow it
-        ax_c = fig.add_axes([0.58, 0.54, 0.36, 0.16])
-        for n, (a, b, lab) in enumerate(pairs):
-            r = d[:, cases.index(a)] / d[:, cases.index(b)]
-            ax_c.semilogx(f, _db(r), color=f"C{n}", lw=1, label=f"{lab} (dB)")
-            ax_c.semilogx(f, _deg(r) / 10, color=f"C{n}", lw=1, ls="--", label=f"{lab} (deg / 10)")
-        ax_c.set_title("softer pedicle, softer or sliding joint: ratio of their H_V", fontsize=8)
-        ax_c.legend(fontsize=5.5)
-        axes.append(ax_c)
-    for ax in axes:
-        ax.tick_params(labelsize=6)
-        ax.grid(True, which="both", lw=0.3)
-        ax.set_xlabel("frequency (Hz)", fontsize=6)
+    if not pairs:
+        return []
+    f, d = arrays["freq_hz"], arrays["delta"]
+    ax_c = fig.add_axes([0.58, 0.54, 0.36, 0.16])
+    for n, (a, b, lab) in enumerate(pairs):
+        r = d[:, cases.index(a)] / d[:, cases.index(b)]
+        ax_c.semilogx(f, _db(r), color=f"C{n}", lw=1, label=f"{lab} (dB)")
+        ax_c.semilogx(f, _deg(r) / 10, color=f"C{n}", lw=1, ls="--", label=f"{lab} (deg / 10)")
+    ax_c.set_title("softer pedicle, softer or sliding joint: ratio of their H_V", fontsize=8)
+    ax_c.legend(fontsize=5.5)
+    return [ax_c]
+
+
+def _delta_table(tr: dict) -> list[str]:
+    """ΔH_V per case at the quoted frequencies, and the worst over the band."""
+    cases = tr["cases"]
     lines = [f"{'dH_V':15}" + "".join(f"{c:>15}" for c in cases)]
     for q in tr["quote"]:
         lines.append(
@@ -167,8 +186,11 @@ def delta_page(fig, tr: dict, arrays: dict, lumped: dict, lumped_arrays: dict):
         )
     worst_db, worst_deg = tr["worst_delta_db"], tr["worst_delta_deg"]
     lines.append("worst |.|      " + "".join(f"{worst_db[c]:7.2f}dB{worst_deg[c]:5.1f}d " for c in cases))
-    text_block(fig, 0.04, 0.49, "\n".join(lines), fontsize=5.6)
-    lp = lumped["load_path"]
+    return lines
+
+
+def _load_path_table(lp: list[dict]) -> list[str]:
+    """The lumped ear's load path: how stiff the ear is against the joint, and β's sensitivity."""
     rows = [
         f"{'load path, lumped ear':19}{'|Z_env| / |Z_joint| along the motion':>38}   "
         f"{'d ln beta / d ln E_pedicle':^38}",
@@ -185,7 +207,11 @@ def delta_page(fig, tr: dict, arrays: dict, lumped: dict, lumped_arrays: dict):
             + f"{r['thevenin_beta_sensitivity'][0]:+7.3f}{r['force_driven_beta_sensitivity'][0]:+7.3f}"
             + f"{r['isolated_beta_sensitivity']:+7.3f}"
         )
-    text_block(fig, 0.04, 0.40, "\n".join(rows), fontsize=5.6)
+    return rows
+
+
+def _delta_note(tr: dict, lp: list[dict]) -> str:
+    """What ΔH_V compares, the first case's figure, and why β barely follows the pedicle in the ear."""
     base = lp[0]
     most = max(lp[1:], key=lambda r: abs(r["ear_beta_sensitivity"][0]))
     q0 = tr["quote"][0] if tr["quote"] else None
@@ -213,4 +239,4 @@ def delta_page(fig, tr: dict, arrays: dict, lumped: dict, lumped_arrays: dict):
         "The lumped ear's coupling has only alpha and beta; its dH_V (dotted) misses the FE joint's "
         "other compliances (docs/transmission.md)."
     )
-    text_block(fig, 0.07, 0.22, wrap(note, 112), fontsize=7)
+    return note
