@@ -58,14 +58,21 @@ def band_header() -> list[str]:
 def circuit_page(fig, tr: dict):
     """U_S = A_fp H_V and P_V / P_EC of the ear beside the published cat circuit, open and intact."""
     circ, cav, conv = tr["circuit"], tr["cavities"], tr["drum_convergence"]
-    f = np.asarray(circ["freq_hz"])
     states = [s for s in cav["states"] if s in circ["states"]]  # the configured order
+    _circuit_axes(fig, circ, states, conv["within_1db_up_to_hz"])
+    text_block(fig, 0.07, 0.565, "\n".join(_circuit_table(circ, states)), fontsize=6.2)
+    text_block(fig, 0.07, 0.285, wrap("\n".join(_circuit_notes(circ, cav, conv)), 112), fontsize=6.8)
+
+
+def _circuit_axes(fig, circ: dict, states: list[str], conv_hz) -> None:
+    """Magnitude and phase of U_S and P_V, ear solid and circuit dashed, per cavity state; the band
+    above ``conv_hz`` (Hz), where the drum is not converged, grey."""
+    f = np.asarray(circ["freq_hz"])
     top, h_mag, h_ph = 0.88, 0.17, 0.09
     ax_um = fig.add_axes([0.10, top - h_mag, 0.37, h_mag])
     ax_up = fig.add_axes([0.10, top - h_mag - 0.01 - h_ph, 0.37, h_ph], sharex=ax_um)
     ax_pm = fig.add_axes([0.59, top - h_mag, 0.37, h_mag], sharex=ax_um)
     ax_pp = fig.add_axes([0.59, top - h_mag - 0.01 - h_ph, 0.37, h_ph], sharex=ax_um)
-    conv_hz = conv["within_1db_up_to_hz"]
     for s in states:
         st, color = circ["states"][s], STATE_COLORS.get(s, "k")
         for who, style, lab in (("ear", "-", f"ear (FE, {circ['case']})"), ("circuit", "--", "cat circuit")):
@@ -95,13 +102,22 @@ def circuit_page(fig, tr: dict):
         + ("; grey: the drum is not converged to 1 dB" if conv_hz is not None else ""),
         fontsize=6.5,
     )
+
+
+def _circuit_table(circ: dict, states: list[str]) -> list[str]:
+    """The deviation ear / circuit per octave band, per cavity state."""
     lines = [
         "Deviation d = ear / cat circuit (" + CIRCUIT_LABEL + ") per octave band, same cavity state:",
     ]
     for s in states:
         lines += ["", f"cavities {s}:", *band_header(), *band_rows(circ["states"][s]["deviation_per_band"])]
-    text_block(fig, 0.07, 0.565, "\n".join(lines), fontsize=6.2)
+    return lines
+
+
+def _circuit_notes(circ: dict, cav: dict, conv: dict) -> list[str]:
+    """The drum's converged band, ΔH_V's drum error, ΔH_V in both cavity states, what the circuit is."""
     notes = []
+    conv_hz = conv["within_1db_up_to_hz"]
     if conv_hz is not None:
         notes.append(
             f"The ear's drum is converged only up to {conv_hz / 1e3:.1f} kHz: there the default drum "
@@ -147,4 +163,4 @@ def circuit_page(fig, tr: dict):
         "with its cavity elements removed (docs/circuit.md 13.2). The ear's default state is "
         f"cavities {cav['default_cavities']} (docs/circuit.md 13.3); every other page shows the open ear."
     )
-    text_block(fig, 0.07, 0.285, wrap("\n".join(notes), 112), fontsize=6.8)
+    return notes
