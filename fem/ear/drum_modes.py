@@ -82,54 +82,16 @@ def drum_modes(
     Each mode's sign makes its load ≥ 0 (its largest coupling > 0 when the load vanishes), so
     that the data are reproducible.
     """
-    from scipy.sparse.linalg import LinearOperator, eigsh
-
     if isinstance(n_modes, bool) or not isinstance(n_modes, int | np.integer) or n_modes < 1:
         raise InvalidParameter(f"n_modes = {n_modes!r}: must be an integer >= 1")
     m = materials or EarMaterials()
     # the clamped drum and its six constraint modes (Guyan), those of fem.ear.lumped_params
     drum = clamped_drum(geometry, m, mesh_size_m, density_kg_m3)
-    K, M, f, free, lu = drum.stiffness, drum.mass, drum.load, drum.free, drum.lu
-    x_ref, psi = drum.reference_m, drum.constraint_modes
-    n = K.shape[0]
+    M, free, x_ref, psi = drum.mass, drum.free, drum.reference_m, drum.constraint_modes
     if not n_modes < free.size - 1:
         raise InvalidParameter(f"n_modes = {n_modes!r}: must be < {free.size - 1} (the drum's free dofs)")
-    Kff = K[free][:, free].tocsc()
-    Mff = M[free][:, free].tocsc()
-
-    # the fixed-interface modes: shift-invert about 0 with the interior's own factor
-    opinv = LinearOperator(Kff.shape, matvec=lu.solve, dtype=float)
-    w2, vec = eigsh(
-        Kff,
-        k=int(n_modes),
-        M=Mff,
-        sigma=0.0,
-        which="LM",
-        OPinv=opinv,
-        tol=1e-12,
-        v0=lanczos_start(free.size),  # fixed: the same modes on every run
-    )
-    order = np.argsort(w2)
-    w2, vec = w2[order], vec[:, order]
-    vec /= np.sqrt(np.einsum("im,im->m", vec, Mff @ vec))  # φᵀMφ = 1 to rounding
-    phi = np.zeros((n, n_modes))
-    phi[free] = vec
-    b = phi.T @ f
-    c = phi.T @ (M @ psi)  # (N, 6)
-    # a reproducible sign: the load positive, or the largest coupling where the load vanishes
-    big = c[np.arange(n_modes), np.argmax(np.abs(c), axis=1)]
-    tiny = np.abs(b) <= 1e-9 * np.abs(b).max()
-    sign = np.where(tiny, np.sign(big), np.sign(b))
-    sign[sign == 0] = 1.0
-    phi, b, c = phi * sign, b * sign, c * sign[:, None]
-
-    # the static residual of 1 Pa with the manubrium held, the kept modes removed
-    r = np.zeros(n)
-    r[free] = lu.solve(f[free])
-    r -= phi @ (b / w2)
-    compliance = float(f @ r)
-    if not compliance > 0:
-        raise RuntimeError(f"the static residual's compliance {compliance!r} m³/Pa is not positive")
+    w2, phi, b, c = _fixed_interface_modes(drum, int(n_modes))
+    compliance, r = _static_residual(drum, phi, b, w2)
     r_hat = r / compliance
     return {
         "freq_hz": [float(v) for v in np.sqrt(w2) / (2 * np.pi)],
@@ -143,6 +105,52 @@ def drum_modes(
         "mesh_size_m": float(mesh_size_m),
         "density_kg_m3": float(density_kg_m3),
     }
+
+
+def _fixed_interface_modes(drum, n_modes: int):
+    """(ω², φ, φᵀf, φᵀMΨ) of the drum's ``n_modes`` lowest modes with the manubrium held: M-normal,
+    ascending, each with a reproducible sign (its load positive, or its largest coupling where the
+    load vanishes)."""
+    from scipy.sparse.linalg import LinearOperator, eigsh
+
+    K, M, f, free, lu = drum.stiffness, drum.mass, drum.load, drum.free, drum.lu
+    Kff = K[free][:, free].tocsc()
+    Mff = M[free][:, free].tocsc()
+    # shift-invert about 0 with the interior's own factor
+    opinv = LinearOperator(Kff.shape, matvec=lu.solve, dtype=float)
+    w2, vec = eigsh(
+        Kff,
+        k=n_modes,
+        M=Mff,
+        sigma=0.0,
+        which="LM",
+        OPinv=opinv,
+        tol=1e-12,
+        v0=lanczos_start(free.size),  # fixed: the same modes on every run
+    )
+    order = np.argsort(w2)
+    w2, vec = w2[order], vec[:, order]
+    vec /= np.sqrt(np.einsum("im,im->m", vec, Mff @ vec))  # φᵀMφ = 1 to rounding
+    phi = np.zeros((K.shape[0], n_modes))
+    phi[free] = vec
+    b = phi.T @ f
+    c = phi.T @ (M @ drum.constraint_modes)  # (N, 6)
+    big = c[np.arange(n_modes), np.argmax(np.abs(c), axis=1)]
+    tiny = np.abs(b) <= 1e-9 * np.abs(b).max()
+    sign = np.where(tiny, np.sign(big), np.sign(b))
+    sign[sign == 0] = 1.0
+    return w2, phi * sign, b * sign, c * sign[:, None]
+
+
+def _static_residual(drum, phi, b, w2) -> tuple[float, np.ndarray]:
+    """(fᵀr, r): the static displacement r of 1 Pa with the manubrium held, the kept modes removed."""
+    r = np.zeros(drum.stiffness.shape[0])
+    r[drum.free] = drum.lu.solve(drum.load[drum.free])
+    r -= phi @ (b / w2)
+    compliance = float(drum.load @ r)
+    if not compliance > 0:
+        raise RuntimeError(f"the static residual's compliance {compliance!r} m³/Pa is not positive")
+    return compliance, r
 
 
 def main(argv=None) -> int:
