@@ -126,23 +126,34 @@ def run_ear_sweep(
     # FE whole-ear static spot check (low frequency)
     joint = None if rigid_joint else PedicleJointModel(order=order, resolution=resolution)
     fe_model = MiddleEarModel(joint=joint)
-    fe = fe_model.static(materials, ear_materials)
+    fe_vals = _fe_static(fe_model, materials, ear_materials)
     t2 = time.perf_counter()
-    fe_vals = {
-        "umbo_m": fe.umbo_m_per_pa,
-        "stapes_m": fe.footplate_piston_m_per_pa,
-        "alpha_rad": fe.alpha_rad_per_pa,
-        "beta_rad": fe.beta_rad_per_pa,
-    }
     check, errors, passed = _static_check(sw, fe_vals, tolerance)
     fe_checks = _harmonic_checks(
         sw, fe_model, fe_freq_hz, materials, ear_materials, damping, tolerance, rigid_joint
     )
     t3 = time.perf_counter()
-    summary = {
-        "n_freq": int(np.size(freq_hz)),
-        "rigid_joint": bool(rigid_joint),
-        "drum_modes": int(drum_modes),
+    head = {"n_freq": int(np.size(freq_hz)), "rigid_joint": bool(rigid_joint), "drum_modes": int(drum_modes)}
+    summary = head | _summary(sw, fe_model, damping, delta, check, fe_checks, passed, tolerance)
+    summary["timings_s"] = {"lumped": t1 - t0, "fe": t2 - t1, "fe_harmonic": t3 - t2}
+    return EarSweepRun(sw, fe_vals, errors, check, fe_checks, summary, delta)
+
+
+def _fe_static(fe_model, materials, ear_materials) -> dict[str, float]:
+    """The FE whole ear's static response per Pa: umbo, stapes piston, α and β."""
+    fe = fe_model.static(materials, ear_materials)
+    return {
+        "umbo_m": fe.umbo_m_per_pa,
+        "stapes_m": fe.footplate_piston_m_per_pa,
+        "alpha_rad": fe.alpha_rad_per_pa,
+        "beta_rad": fe.beta_rad_per_pa,
+    }
+
+
+def _summary(sw, fe_model, damping, delta, check, fe_checks, passed, tolerance) -> dict:
+    """The sweep's JSON summary after its size, connection and drum modes: the lumped ear's modes
+    and statics, the FE checks, ΔH_V."""
+    return {
         "coordinates": list(sw.model.coordinates),
         "natural_freq_hz": [float(v) for v in sw.natural_freq_hz],
         "damping_ratio": [float(v) for v in sw.damping_ratio],
@@ -154,9 +165,7 @@ def run_ear_sweep(
         "delta_h_v": delta["summary"] | {"against": "the rigid connection of the same lumped ear"},
         "passed": passed and all(ck["passed"] for ck in fe_checks),
         "tolerance": tolerance,
-        "timings_s": {"lumped": t1 - t0, "fe": t2 - t1, "fe_harmonic": t3 - t2},
     }
-    return EarSweepRun(sw, fe_vals, errors, check, fe_checks, summary, delta)
 
 
 def lumped_delta(sw, calibration, materials, ear_materials, damping, drum_modes, rigid_joint) -> dict:
