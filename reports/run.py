@@ -65,16 +65,22 @@ def check_out_dir(out_dir: str | os.PathLike, name: str = "out_dir") -> Path:
     return check_out_folder(out_dir, name, REPORT_ENTRIES, written_by="isj report")
 
 
+def _link_or_copy(source: Path, target: Path) -> None:
+    """A previous report's file into the new one: a hard link (the old folder keeps its own name
+    for it), or a copy where links cannot be made."""
+    try:
+        os.link(source, target)
+    except OSError:
+        shutil.copy2(source, target)
+
+
 def _reuse_vtu(out: Path, model_key: str, target: Path) -> bool:
     """Link the previous report's ``base.vtu`` into ``target`` if it came from the same model step."""
     try:
         previous = json.loads((out / "run.json").read_text())
         if previous.get("step_keys", {}).get("model") != model_key or not (out / "base.vtu").is_file():
             return False
-        try:
-            os.link(out / "base.vtu", target)  # the old folder keeps its own name for it
-        except OSError:
-            shutil.copy2(out / "base.vtu", target)
+        _link_or_copy(out / "base.vtu", target)
         return True
     except (OSError, ValueError, AttributeError):
         return False
@@ -102,10 +108,7 @@ def _reuse_pdf(out: Path, pdf_key: str, target: Path) -> list[str] | None:
         pdf = previous.get("pdf", {})
         if pdf.get("key") != pdf_key or _file_sha256(out / "report.pdf") != pdf.get("sha256"):
             return None
-        try:
-            os.link(out / "report.pdf", target)  # the old folder keeps its own name for it
-        except OSError:
-            shutil.copy2(out / "report.pdf", target)
+        _link_or_copy(out / "report.pdf", target)
         return list(previous["pages"])
     except (OSError, ValueError, AttributeError, KeyError, TypeError):
         return None
