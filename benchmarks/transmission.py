@@ -6,7 +6,7 @@ Usage: ``.venv/bin/python benchmarks/transmission.py [--cases base p3 p12 j5c20]
 For the rigid incus–stapes connection and each case (docs/transmission.md §12.3): direct FE
 harmonic solves of the whole ear (P2, published damping) at the three frequencies, the reduced
 FE ear of each (``reduced_ear``, as the report) at the same frequencies, and the lumped ear
-with the drum's 240 modes. Prints |H_V| of the rigid ear, each case's ΔH_V in dB and degrees,
+with the drum's 300 modes. Prints |H_V| of the rigid ear, each case's ΔH_V in dB and degrees,
 the reduced ear's difference from the direct solve, and the seconds of each.
 """
 

@@ -392,6 +392,12 @@ class EarMasses:
         return dataclasses.replace(self, **changes)
 
 
+#: The eardrum's element size (m) in every FE ear, unless given: the coarsest drum whose H_V and
+#: ΔH_V agree with the finest drum measured (0.075 mm) within 1 dB, 0.1 dB and 1° up to 10 kHz,
+#: about 6,200 triangles (docs/ear.md §5.15, benchmarks/drum_convergence.py). A numerical
+#: choice, not anatomy.
+DEFAULT_DRUM_MESH_SIZE_M = 0.125e-3
+
 #: Experimental cat references at low frequency, per Pa of ear-canal pressure (docs/ear.md §5.12):
 #: umbo ≈ 53 nm/Pa (Guinan & Peake 1967); stapes 25–30 nm/Pa (Guinan & Peake 1967),
 #: ≈ 30 nm/Pa (Decraemer et al. 2000).

@@ -56,8 +56,8 @@ VERSIONS = {
     "mesh": 1,
     "fe_static": 1,
     "fe_dynamic": 1,
-    "ear": 1,
-    "drum_modes": 1,
+    "ear": 2,
+    "drum_modes": 2,
     "surrogate": 1,
     "lumped": 1,
 }

@@ -153,7 +153,7 @@ class DrumModes:
 
 
 def default_drum_modes() -> DrumModes:
-    """The shipped modes (default anatomy, E = 20 MPa, 0.25 mm drum mesh, 1200 kg/m³)."""
+    """The shipped modes (default anatomy, E = 20 MPa, 0.125 mm drum mesh, 1200 kg/m³)."""
     ref = resources.files("isj.lumped") / "data" / DEFAULT_DRUM_MODES_FILE
     return DrumModes.from_dict(json.loads(ref.read_text()))
 

@@ -30,8 +30,8 @@ from isj.validate import check_frequencies
 from .ear import LumpedEar
 from .model import MODULI
 
-#: The drum's shipped component modes reach 24.9 kHz: all of them, for a band to 20 kHz.
-ALL_DRUM_MODES = 240
+#: The drum's shipped component modes reach 26.4 kHz: all of them, for a band to 20 kHz.
+ALL_DRUM_MODES = 300
 
 
 def _velocity(freq_hz: np.ndarray, x: np.ndarray) -> np.ndarray:
@@ -119,7 +119,7 @@ def transmission(
     cases : the designs (default the seven thesis cases), each applied to ``base``
     model : :class:`isj.lumped.api.LumpedModel` (default: the shipped calibration)
     base : the moduli the cases change (default :class:`isj.design.Materials`)
-    drum_modes : the drum's component modes (default all 240 shipped, to 24.9 kHz)
+    drum_modes : the drum's component modes (default all 300 shipped, to 26.4 kHz)
     **ear_options : :meth:`isj.lumped.api.LumpedModel.ear` options (damping, ear_materials, …),
         the same for the cases and the rigid connection
     """

@@ -30,12 +30,13 @@ from typing import ClassVar
 
 from isj.cases import THESIS_CASES
 from isj.design import DEFAULT_PRESSURE_PA, Geometry, Materials
-from isj.ear import EarMaterials
+from isj.ear import DEFAULT_DRUM_MESH_SIZE_M, EarMaterials
 from isj.errors import (
     ConfigError,
     InvalidParameter,
 )
 from isj.validate import (
+    DRUM_MESH_SIZE_RANGE_M,
     EAR_FMAX_HZ,
     TRANSMISSION_SAMPLES_RANGE,
     TRANSMISSION_SOBOL_SAMPLES_RANGE,
@@ -82,10 +83,16 @@ class DesignConfig(Materials):
 
 @dataclass(frozen=True)
 class MeshConfig:
-    """FE discretisation of every FE step but the convergence study."""
+    """FE discretisation of every FE step but the convergence study.
+
+    ``order`` and ``resolution``: the joint model's elements. ``drum_mesh_size_m``: the FE
+    ear's eardrum element size, read by the steps with the FE ear (ear, transmission, uq); the
+    default is the coarsest converged drum (docs/ear.md §5.15).
+    """
 
     order: int = 2
     resolution: float = 1.0
+    drum_mesh_size_m: float = DEFAULT_DRUM_MESH_SIZE_M
 
 
 @dataclass(frozen=True)
@@ -419,6 +426,9 @@ def _check_design(cfg: ReportConfig) -> None:
         raise ConfigError(str(exc)) from None
     _need(cfg.mesh.order in (1, 2), "mesh.order", cfg.mesh.order, "must be 1 or 2")
     _need(0.2 <= cfg.mesh.resolution <= 4, "mesh.resolution", cfg.mesh.resolution, "must be in [0.2, 4]")
+    lo, hi = DRUM_MESH_SIZE_RANGE_M
+    size = cfg.mesh.drum_mesh_size_m
+    _need(lo <= size <= hi, "mesh.drum_mesh_size_m", size, f"must be in [{lo}, {hi}] m")
 
 
 def _check_studies(cfg: ReportConfig) -> None:

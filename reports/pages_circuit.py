@@ -115,28 +115,21 @@ def _circuit_table(circ: dict, states: list[str]) -> list[str]:
 
 
 def _circuit_notes(circ: dict, cav: dict, conv: dict) -> list[str]:
-    """The drum's converged band, ΔH_V's drum error, ΔH_V in both cavity states, what the circuit is."""
+    """The drum's converged band, ΔH_V in both cavity states, what the circuit is."""
     notes = []
-    conv_hz = conv["within_1db_up_to_hz"]
+    conv_hz, size_mm = conv["within_1db_up_to_hz"], conv["drum_mesh_size_m"] * 1e3
     if conv_hz is not None:
         notes.append(
-            f"The ear's drum is converged only up to {conv_hz / 1e3:.1f} kHz: there the default drum "
-            f"and a twice finer one agree within 1 dB in H_V ({conv['source']}). Above it (grey) the "
-            "ear's own mesh error is of the order of the deviations shown."
-        )
-    change = conv.get("delta_h_v_change_db_at_1_5_10_khz")
-    if change:
-        worst = [max(abs(v[i]) for v in change.values()) for i in range(3)]
-        notes.append(
-            "dH_V on this drum against the converged drum (0.125 mm), cases "
-            + ", ".join(change)
-            + f": at most {worst[0]:.3f}, {worst[1]:.3f} and {worst[2]:.3f} dB apart at 1, 5 and 10 kHz "
-            f"({conv['delta_h_v_source']})."
+            f"The ear's drum ({size_mm:.3g} mm) is converged up to {conv_hz / 1e3:.1f} kHz: there it and "
+            f"the finest drum measured ({conv['against_m'] * 1e3:.3g} mm) agree within 1 dB in H_V; "
+            f"dH_V agrees within 0.1 dB up to {conv['delta_within_0p1db_up_to_hz'] / 1e3:.1f} kHz and "
+            f"within 1 deg up to {conv['delta_within_1deg_up_to_hz'] / 1e3:.1f} kHz ({conv['source']}). "
+            "Above it (grey) the ear's own mesh error is of the order of the deviations shown."
         )
     else:
         notes.append(
-            f"The band in which this drum (mesh size {conv['drum_mesh_size_m'] * 1e3:.3g} mm) is "
-            "converged has not been measured (docs/ear.md 5.14 measured the 0.25 mm drum)."
+            f"The band in which this drum (mesh size {size_mm:.3g} mm) is converged has not been "
+            "measured (docs/ear.md 5.15 measured 0.25, 0.18, 0.125 and 0.09 mm)."
         )
     q = cav["quote"]
     first = circ["case"]

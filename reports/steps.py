@@ -323,12 +323,12 @@ def ear_step(ctx: Context) -> tuple[dict, dict]:
     cfg = ctx.config
     joint, _ = shared_model(ctx.settings)
     base = cfg.design.materials()
-    ear = MiddleEarModel(joint=joint)
+    ear = MiddleEarModel(joint=joint, drum_mesh_size_m=cfg.mesh.drum_mesh_size_m)
     from tqdm import tqdm
 
     bar = tqdm(THESIS_CASES, desc="whole ear, 7 cases", unit="case", disable=not ctx.progress, leave=False)
     cases = {c.name: ear.static(c.materials(base), cfg.ear) for c in bar}
-    rigid_model = MiddleEarModel(joint=None, geometry=ear.geometry)
+    rigid_model = ear.rigid_connection()
     rigid = rigid_model.static(base, cfg.ear)
     res0 = cases[THESIS_CASES[0].name]
     g = ear.geometry
@@ -384,25 +384,28 @@ def _ear_summary(r) -> dict:
     return {k: d[k] for k in keep}
 
 
+#: The [mesh] keys of the steps without an eardrum: a new drum mesh keeps their results.
+MESH_NO_DRUM = ("mesh.order", "mesh.resolution")
+
 #: Report sections in order: (name, function, the configuration sections it reads, or single
 #: keys of one, "section.key").
 STEPS = (
-    ("model", model_step, ("design", "geometry", "mesh")),
-    ("cases", cases_step, ("design", "geometry", "mesh")),
-    ("trends", trends_step, ("design", "geometry", "mesh", "trends")),
+    ("model", model_step, ("design", "geometry", *MESH_NO_DRUM)),
+    ("cases", cases_step, ("design", "geometry", *MESH_NO_DRUM)),
+    ("trends", trends_step, ("design", "geometry", *MESH_NO_DRUM, "trends")),
     ("convergence", convergence_step, ("geometry", "convergence")),
-    ("calibration", calibration_step, ("design", "geometry", "mesh", "calibration")),
-    ("sweep", sweep_step, ("design", "geometry", "mesh", "sweep")),
+    ("calibration", calibration_step, ("design", "geometry", *MESH_NO_DRUM, "calibration")),
+    ("sweep", sweep_step, ("design", "geometry", *MESH_NO_DRUM, "sweep")),
     ("ear", ear_step, ("design", "geometry", "mesh", "ear")),
     ("transmission", transmission_step, ("design", "geometry", "mesh", "ear", "sweep", "transmission")),
     ("load_path", load_path_step, ("design", "geometry", "ear", "sweep", "transmission")),
-    ("sliding", sliding_step, ("design", "geometry", "mesh", "sliding")),
-    ("guard", guard_step, ("design", "geometry", "mesh", "guard")),
+    ("sliding", sliding_step, ("design", "geometry", *MESH_NO_DRUM, "sliding")),
+    ("guard", guard_step, ("design", "geometry", *MESH_NO_DRUM, "guard")),
     # of [design] only the load: the moduli are drawn from their distributions and the rest are
     # isj uq's defaults (tests/test_uq.py checks that no other [design] key changes the result)
     ("uq", uq_step, ("design.pressure_pa", "geometry", "mesh", "ear", "sweep", "transmission", "uq")),
     # last: its FE geometries may push the report geometry's model out of fem.batch's memo
-    ("geometry_trends", geometry_trends_step, ("design", "geometry", "mesh", "geometry_trends")),
+    ("geometry_trends", geometry_trends_step, ("design", "geometry", *MESH_NO_DRUM, "geometry_trends")),
 )
 
 

@@ -31,24 +31,20 @@ SCALES = (0.1, 10.0)
 QUOTE_HZ = (1000.0, 5000.0, 10000.0)
 
 
-#: Where the default drum's H_V is converged: the default drum (``mesh_size_m``, about 1,600
-#: triangles) and a twice finer one agree within 1 dB up to ``within_1db_up_to_hz``
-#: (docs/ear.md §5.14, the measurement ``source`` names). It holds for that drum only: the step
-#: states it when the ear's drum has that mesh size, and says the band is unmeasured otherwise.
+#: How converged each measured drum is (docs/ear.md §5.15, benchmarks/drum_convergence.py): against
+#: the finest drum measured (``against_m``), the highest frequency of the benchmark's grid (121
+#: log-spaced, 100 Hz–20 kHz) up to which every point agrees, H_V within 1 dB, ΔH_V within 0.1 dB
+#: and within 1°, by drum element size (m). The step states the band for the ear's drum when it
+#: is one of these, and says it is unmeasured otherwise.
 DRUM_CONVERGENCE = {
-    "mesh_size_m": 0.25e-3,
-    "within_1db_up_to_hz": 2.6e3,
-    "source": "docs/ear.md 5.14: the default drum against a twice finer one, H_V within 1 dB",
-    "delta_h_v_change_db_at_1_5_10_khz": {
-        "base": [0.0007, -0.070, 0.240],
-        "p3": [0.0008, -0.076, 0.263],
-        "p12": [0.0007, -0.065, 0.219],
-        "j5c20": [0.0022, -0.103, 0.309],
+    "against_m": 0.075e-3,
+    "source": "benchmarks/drum_convergence.py (docs/ear.md 5.15): against the finest drum measured, 0.075 mm",
+    "drums": {
+        0.25e-3: {"h_v_1db_hz": 2510.7, "delta_0p1db_hz": 3272.2, "delta_1deg_hz": 3735.7},
+        0.18e-3: {"h_v_1db_hz": 3904.3, "delta_0p1db_hz": 4457.3, "delta_1deg_hz": 7244.3},
+        0.125e-3: {"h_v_1db_hz": 19136.2, "delta_0p1db_hz": 9867.9, "delta_1deg_hz": 19136.2},
+        0.09e-3: {"h_v_1db_hz": 20000.0, "delta_0p1db_hz": 20000.0, "delta_1deg_hz": 20000.0},
     },
-    "delta_h_v_source": (
-        "benchmarks/drum_cases.py (docs/ear.md 5.15): dH_V on the converged drum (0.125 mm) minus "
-        "dH_V on this drum, default joint mesh"
-    ),
 }
 
 #: The ``[transmission] cavities`` choices and the cavity states each computes beside the open ear.
@@ -111,8 +107,8 @@ def fe_band(ctx, freq_hz: np.ndarray) -> tuple[dict, dict, dict, dict]:
     states = cavity_states(t.cavities)
     base = cfg.design.materials()
     joint, _ = shared_model(ctx.settings)
-    ear = MiddleEarModel(joint=joint)
-    rigid_model = MiddleEarModel(joint=None, geometry=ear.geometry)
+    ear = MiddleEarModel(joint=joint, drum_mesh_size_m=cfg.mesh.drum_mesh_size_m)
+    rigid_model = ear.rigid_connection()
     rigid = es.reduced_ear(rigid_model, base, cfg.ear, fmax_hz=t.fmax_hz)
     out = {"rigid": _columns(rigid.frequency_response(freq_hz, damping))}
     cav = {"rigid": cavity_columns(rigid, freq_hz, damping, states)}
@@ -139,7 +135,7 @@ def fe_band(ctx, freq_hz: np.ndarray) -> tuple[dict, dict, dict, dict]:
 
         mesh = cfg.mesh
         jm = PedicleJointModel(cfg.geometry, order=mesh.order, resolution=mesh.resolution, joint="sliding")
-        sliding = MiddleEarModel(joint=jm)
+        sliding = MiddleEarModel(joint=jm, drum_mesh_size_m=mesh.drum_mesh_size_m)
         for name in t.sliding_cases:
             rom = es.reduced_ear(sliding, case_by_name(name).materials(base), cfg.ear, fmax_hz=t.fmax_hz)
             out[f"{name}_sliding"] = _columns(rom.frequency_response(freq_hz, damping))
@@ -349,22 +345,17 @@ def circuit_section(cfg, freq_hz, fe: dict, cav: dict, case: str) -> dict:
     }
 
 
-def drum_convergence() -> dict:
-    """The band in which the ear's drum is converged (:data:`DRUM_CONVERGENCE`), for this drum."""
-    from isj.fem.ear.eardrum import EardrumGeometry
-
-    size = EardrumGeometry().mesh_size_m
-    measured = size == DRUM_CONVERGENCE["mesh_size_m"]
+def drum_convergence(size_m: float) -> dict:
+    """The band in which a drum of element size ``size_m`` (m) is converged (:data:`DRUM_CONVERGENCE`);
+    None in each band when that drum was not measured."""
+    measured = next((v for k, v in DRUM_CONVERGENCE["drums"].items() if abs(k - size_m) <= 1e-12), None)
     return {
-        "drum_mesh_size_m": size,
-        "within_1db_up_to_hz": DRUM_CONVERGENCE["within_1db_up_to_hz"] if measured else None,
+        "drum_mesh_size_m": float(size_m),
+        "against_m": DRUM_CONVERGENCE["against_m"],
+        "within_1db_up_to_hz": measured["h_v_1db_hz"] if measured else None,
+        "delta_within_0p1db_up_to_hz": measured["delta_0p1db_hz"] if measured else None,
+        "delta_within_1deg_up_to_hz": measured["delta_1deg_hz"] if measured else None,
         "source": DRUM_CONVERGENCE["source"] if measured else "not measured for this drum",
-        "delta_h_v_change_db_at_1_5_10_khz": (
-            DRUM_CONVERGENCE["delta_h_v_change_db_at_1_5_10_khz"] if measured else None
-        ),
-        "delta_h_v_source": DRUM_CONVERGENCE["delta_h_v_source"]
-        if measured
-        else "not measured for this drum",
     }
 
 
@@ -513,7 +504,7 @@ def transmission_step(ctx) -> tuple[dict, dict]:
     result |= {
         "cavities": cavities,
         "circuit": circuit_section(cfg, f, fe, cav, cases[0]),
-        "drum_convergence": drum_convergence(),
+        "drum_convergence": drum_convergence(cfg.mesh.drum_mesh_size_m),
     }
     arrays = {"freq_hz": f, "delta": delta, "pedicle_share": share}
     for name, cols in fe.items():

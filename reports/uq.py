@@ -182,7 +182,9 @@ def transmission_evaluator(ctx):
     # the transmission step's fast ear when its band holds the evaluator's grid, else one to 20 kHz
     fmax_hz = cfg.transmission.fmax_hz if cfg.transmission.fmax_hz >= TRANSMISSION_FREQ_HZ[-1] else 20e3
     joint, _ = shared_model(ctx.settings)
-    fast = fast_ear(MiddleEarModel(joint=joint), cfg.ear, fmax_hz=fmax_hz)
+    fast = fast_ear(
+        MiddleEarModel(joint=joint, drum_mesh_size_m=cfg.mesh.drum_mesh_size_m), cfg.ear, fmax_hz=fmax_hz
+    )
     return TransmissionEvaluator(fast, damping=cfg.sweep.damping_model())
 
 

@@ -29,6 +29,7 @@ from isj.lumped.second_order import SecondOrderModel
 from isj.damping import resolve
 from isj.ear import EarMaterials
 from isj.errors import InvalidParameter
+from isj.validate import EAR_FMAX_HZ
 
 H = 0.4e-3  # the coarse drum mesh (m)
 F = np.geomspace(200.0, 8000.0, 14)  # the measurement's frequencies (Hz)
@@ -233,7 +234,8 @@ def test_shipped_modes_are_the_default_drums():
     from isj.fem.ear.drum_modes import drum_modes
 
     shipped = default_drum_modes()
-    assert shipped.n_modes == 240 and shipped.freq_hz[0] == pytest.approx(1734, rel=1e-3)
+    assert shipped.n_modes == 300 and shipped.freq_hz[0] == pytest.approx(1721, rel=1e-3)
+    assert shipped.freq_hz[-1] > EAR_FMAX_HZ  # the ear's band is inside the shipped modes
     fresh = DrumModes.from_dict(drum_modes(n_modes=40))
     cut = shipped.truncated(40)
     np.testing.assert_allclose(cut.freq_hz, fresh.freq_hz, rtol=1e-8)
@@ -244,7 +246,7 @@ def test_shipped_modes_are_the_default_drums():
     np.testing.assert_allclose(a, b, rtol=1e-6)
 
 
-@pytest.mark.parametrize("value", ["40", -1, 241, 2.5, True])
+@pytest.mark.parametrize("value", ["40", -1, 301, 2.5, True])
 def test_bad_drum_modes(value):
     with pytest.raises(InvalidParameter, match="drum_modes|n ="):
         ear_model(drum_modes=value)

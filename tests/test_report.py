@@ -384,11 +384,16 @@ def test_circuit_page_shows_the_published_cat_circuit_in_both_cavity_states(repo
                 for k in ("mean_abs_db", "max_abs_db", "mean_db", "mean_abs_deg", "max_abs_deg"):
                     assert a.get(k) == pytest.approx(b.get(k), abs=1e-6), (s, q, a["band_hz"], k)
     conv = tr["drum_convergence"]
-    assert conv["within_1db_up_to_hz"] == DRUM_CONVERGENCE["within_1db_up_to_hz"]
+    size = ReportConfig().mesh.drum_mesh_size_m  # the coarse report keeps the default drum
+    assert conv["drum_mesh_size_m"] == size
+    assert conv["within_1db_up_to_hz"] == DRUM_CONVERGENCE["drums"][size]["h_v_1db_hz"]
     texts = _pages_text(report["dir"] / "report.pdf")
     page = texts[pdf.PAGE_TITLES.index("14. The ear beside the published cat circuit")]
     assert "published model (Bruce et al. 2003), not a measurement" in page
-    assert f"converged only up to {conv['within_1db_up_to_hz'] / 1e3:.1f} kHz" in " ".join(page.split())
+    assert (
+        f"({size * 1e3:.3g} mm) is converged up to {conv['within_1db_up_to_hz'] / 1e3:.1f} kHz"
+        in " ".join(page.split())
+    )
     band = circ["states"]["intact"]["deviation_per_band"]["stapes_volume_velocity"][3]
     assert f"{band['mean_abs_db']:8.2f}{band['max_abs_db']:8.2f}".strip() in page
 

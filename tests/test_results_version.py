@@ -124,7 +124,7 @@ def _ear() -> dict:
     from isj.fem.ear.reduced_ear import OUTPUTS, reduced_ear
 
     model, _ = shared_model(_settings())
-    ear = MiddleEarModel(joint=model)
+    ear = MiddleEarModel(joint=model, drum_mesh_size_m=0.4e-3)
     static = ear.static()
     H = reduced_ear(ear, fmax_hz=2e3).frequency_response([500.0]).response[0, :, 0]
     h_v = complex(H[OUTPUTS.index("stapes_velocity_m_s")])

@@ -36,7 +36,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from isj.ear import EarGeometry, EarMaterials
+from isj.ear import DEFAULT_DRUM_MESH_SIZE_M, EarGeometry, EarMaterials
 from isj.errors import InvalidParameter
 
 from ..solvers import lanczos_start
@@ -44,15 +44,16 @@ from .lumped_params import clamped_drum
 from .middle_ear import DRUM_DENSITY_KG_M3
 
 #: Modes the shipped data (``lumped/data/default_drum_modes.json``) holds: on the default drum the
-#: lowest 240 reach 24.9 kHz, past the 20 kHz of ``isj ear sweep``; the lowest 40, 6.1 kHz.
-DEFAULT_N_MODES = 240
+#: lowest 300 reach 26.4 kHz, past the ear's 24 kHz (:data:`isj.validate.EAR_FMAX_HZ`); the lowest
+#: 40, 5.9 kHz.
+DEFAULT_N_MODES = 300
 
 
 def drum_modes(
     geometry: EarGeometry | None = None,
     materials: EarMaterials | None = None,
     n_modes: int = DEFAULT_N_MODES,
-    mesh_size_m: float = 0.25e-3,
+    mesh_size_m: float = DEFAULT_DRUM_MESH_SIZE_M,
     density_kg_m3: float = DRUM_DENSITY_KG_M3,
 ) -> dict:
     """Measure the drum's fixed-interface modes and static residual (SI; see the module docstring).

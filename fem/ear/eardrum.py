@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from isj.design import check_positive
-from isj.ear import EarGeometry
+from isj.ear import DEFAULT_DRUM_MESH_SIZE_M, EarGeometry
 from isj.errors import InvalidParameter
 
 from .shell import ShellMaterial, pressure_load
@@ -66,7 +66,8 @@ class EardrumGeometry:
     manubrium_gap_m : distance in x from the manubrium's superior tip to the ring.
         Estimate: 0.4 mm.
     mesh_size_m : target edge length of the triangles (measured in the projection).
-        Not a physical dimension: 0.25 mm gives ≈ 1600 triangles.
+        Not a physical dimension: the default, :data:`isj.ear.DEFAULT_DRUM_MESH_SIZE_M`
+        (0.125 mm, ≈ 6,200 triangles), is the coarsest converged drum (docs/ear.md §5.15).
     """
 
     # defaults from the whole ear's anatomy (isj.ear), so the two cannot drift apart
@@ -76,7 +77,7 @@ class EardrumGeometry:
     normalized_radius: float = _EAR.drum_normalized_radius
     umbo_x_m: float = _EAR.umbo_x_m
     manubrium_gap_m: float = _EAR.manubrium_gap_m
-    mesh_size_m: float = 0.25e-3
+    mesh_size_m: float = DEFAULT_DRUM_MESH_SIZE_M
 
     def __post_init__(self) -> None:
         for name in ("semi_axis_manubrium_m", "semi_axis_transverse_m", "cone_depth_m", "manubrium_gap_m"):

@@ -44,7 +44,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from isj.ear import EarGeometry, EarMaterials
+from isj.ear import DEFAULT_DRUM_MESH_SIZE_M, EarGeometry, EarMaterials
 
 from .constraints import rigid_body_modes
 from .eardrum import ear_canal_load, eardrum_mesh
@@ -95,7 +95,7 @@ class ClampedDrum:
 def clamped_drum(
     geometry: EarGeometry | None = None,
     materials: EarMaterials | None = None,
-    mesh_size_m: float = 0.25e-3,
+    mesh_size_m: float = DEFAULT_DRUM_MESH_SIZE_M,
     density_kg_m3: float = DRUM_DENSITY_KG_M3,
 ) -> ClampedDrum:
     """Mesh and assemble the drum shell, clamp its ring and build its six constraint modes.
@@ -137,7 +137,7 @@ def clamped_drum(
 def eardrum_parameters(
     geometry: EarGeometry | None = None,
     materials: EarMaterials | None = None,
-    mesh_size_m: float = 0.25e-3,
+    mesh_size_m: float = DEFAULT_DRUM_MESH_SIZE_M,
     density_kg_m3: float = DRUM_DENSITY_KG_M3,
 ) -> dict:
     """Measure the eardrum's lumped parameters on the FE drum (SI; see the module docstring).

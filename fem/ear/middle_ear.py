@@ -47,7 +47,7 @@ import scipy.sparse as sp
 
 from isj.cases import THESIS_CASES
 from isj.design import Materials
-from isj.ear import EarGeometry, EarMasses, EarMaterials
+from isj.ear import DEFAULT_DRUM_MESH_SIZE_M, EarGeometry, EarMasses, EarMaterials
 
 from ..sliding import tied_nodes
 from ..solvers import make_solver
@@ -64,7 +64,7 @@ from .shell import NDOF, ShellMaterial, _element_dofs, element_stiffness
 DRUM_DENSITY_KG_M3 = EarMasses().drum_density_kg_m3
 
 
-def eardrum_geometry(g: EarGeometry, mesh_size_m: float = 0.25e-3) -> EardrumGeometry:
+def eardrum_geometry(g: EarGeometry, mesh_size_m: float = DEFAULT_DRUM_MESH_SIZE_M) -> EardrumGeometry:
     """The :class:`EardrumGeometry` described by an :class:`EarGeometry` (same frame, same numbers)."""
     return EardrumGeometry(
         semi_axis_manubrium_m=g.drum_semi_axis_manubrium_m,
@@ -151,7 +151,8 @@ class MiddleEarModel:
         variant. The ear's joint length is the joint's z_top (:meth:`isj.ear.EarGeometry.for_joint`),
         so ``self.geometry`` may differ from ``geometry`` in ``joint_length_m``: pass
         ``self.geometry`` to a rigid-joint variant of the same ear.
-    drum_mesh_size_m : eardrum element size (m); 0.25 mm gives ≈ 1600 triangles
+    drum_mesh_size_m : eardrum element size (m); the default (0.125 mm, ≈ 6,200 triangles) is the
+        coarsest converged drum (:data:`isj.ear.DEFAULT_DRUM_MESH_SIZE_M`, docs/ear.md §5.15)
     solver : sparse solver backend (``fem.solvers.make_solver``)
     """
 
@@ -159,7 +160,7 @@ class MiddleEarModel:
         self,
         geometry: EarGeometry | None = None,
         joint=None,
-        drum_mesh_size_m: float = 0.25e-3,
+        drum_mesh_size_m: float = DEFAULT_DRUM_MESH_SIZE_M,
         solver: str = "auto",
     ):
         t0 = time.perf_counter()
@@ -170,6 +171,7 @@ class MiddleEarModel:
         self.joint = joint
         self._solver_name = solver
         self._solver = None
+        self.drum_mesh_size_m = float(drum_mesh_size_m)
         self.drum = eardrum_mesh(eardrum_geometry(g, drum_mesh_size_m))
         self.footplate = footplate_mesh(g)
         nd, nf = len(self.drum.nodes_m), len(self.footplate.nodes_m)
@@ -238,6 +240,16 @@ class MiddleEarModel:
         self.timings_s = {"setup": t1 - t0, "reduced_pattern": t2 - t1}
 
     # ------------------------------------------------------------------ assembly
+
+    def rigid_connection(self) -> MiddleEarModel:
+        """The same ear (anatomy, drum mesh, solver) with the incus and the stapes rigidly joined:
+        the reference of ΔH_V."""
+        return MiddleEarModel(
+            geometry=self.geometry,
+            joint=None,
+            drum_mesh_size_m=self.drum_mesh_size_m,
+            solver=self._solver_name,
+        )
 
     def _fixed_entries(self):
         """Positions (rows, cols) of the entries of everything but the joint model (moduli-independent)."""

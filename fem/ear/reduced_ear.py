@@ -39,6 +39,7 @@ from isj.errors import InvalidParameter
 from isj.responses import FrequencyResponse
 from isj.validate import check_frequencies
 
+from ..solvers import available_backends, make_indefinite_solver
 from .dynamics import harmonic
 from .joint_condensation import (
     CondensedEar,
@@ -50,7 +51,6 @@ from .joint_condensation import (
     orthonormalize,
     part_coefficients,
 )
-from ..solvers import available_backends, make_indefinite_solver
 from .middle_ear import MiddleEarModel
 from .shell import NDOF
 

@@ -283,7 +283,6 @@ def _fe_sweep(args) -> int:
     import numpy as np
 
     from isj.fem.ear import reduced_ear as es
-    from isj.fem.ear.middle_ear import MiddleEarModel
     from isj.responses import delta_columns
 
     from ..atomic import replace_dir
@@ -311,7 +310,7 @@ def _fe_sweep(args) -> int:
     h_v = resp["stapes_velocity_m_s"]
     h_v_rigid = h_v
     if not args.rigid_joint:
-        rigid_model = MiddleEarModel(joint=None, geometry=model.geometry)
+        rigid_model = model.rigid_connection()
         rigid = es.reduced_ear(rigid_model, m, ear_materials, fmax_hz=args.fmax_hz)
         h_v_rigid = rigid.frequency_response(freqs, damping)["stapes_velocity_m_s"]
     delta = delta_columns(freqs, h_v, h_v_rigid)
