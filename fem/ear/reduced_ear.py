@@ -24,7 +24,9 @@ dense complex solve per frequency (:meth:`ReducedEar.frequency_response`).
 
 from __future__ import annotations
 
+import hashlib
 import time
+from collections import OrderedDict
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -133,6 +135,71 @@ def _values_on(pattern: sp.csr_matrix, A: sp.csr_matrix) -> np.ndarray:
     return np.bincount(where, weights=A.data, minlength=keys.size)
 
 
+#: Interior bases of the shells made in this process (:func:`interior_basis`), by the sha256 of
+#: what they are made from; the oldest is dropped past :data:`INTERIOR_BASES_KEPT`.
+_INTERIOR_BASES: OrderedDict[str, tuple[np.ndarray, np.ndarray, float]] = OrderedDict()
+
+#: How many interior bases the process keeps: the drum and the footplate of one ear (the rigid
+#: connection, the joint's FE reductions and the fast ear share them) with room for a second.
+INTERIOR_BASES_KEPT = 4
+
+
+def _interior_key(arrays, numbers) -> str:
+    h = hashlib.sha256()
+    for a in arrays:
+        a = np.ascontiguousarray(a)
+        h.update(f"{a.dtype.str}|{a.shape}|".encode() + a.tobytes())
+    h.update(repr(numbers).encode())
+    return h.hexdigest()
+
+
+def interior_basis(KII, MII, KIB, MIB, load, f_shift, fmax_hz: float, depth: int, tol: float):
+    """(Ψ, Φ, f₁) of one shell's interior: its static constraint shapes Ψ = −K_II⁻¹ K_IB on the
+    kept dofs it couples to (the columns of ``KIB`` and ``MIB``), its rational Krylov basis Φ
+    (module docstring; orthonormal in the product weighted by M_II's diagonal, new vectors below
+    ``tol`` dropped) at the shifts ``f_shift`` (Hz) with
+    ``depth`` moments each, and its lowest fixed-interface frequency f₁ (Hz).
+
+    Each ear model has the same drum and footplate, so the rigid connection, each FE reduction
+    with the joint and the fast ear ask for the same bases: the process keeps the last
+    :data:`INTERIOR_BASES_KEPT`, by the content of every input, and returns a kept one as it is
+    (the same bits as making it again).
+    """
+    KII, MII = sp.csr_matrix(KII, copy=True), sp.csr_matrix(MII, copy=True)
+    for A in (KII, MII):
+        A.sum_duplicates()  # canonical (sorted, no duplicates): equal matrices, equal keys
+    CSR = ("data", "indices", "indptr")
+    key = _interior_key(
+        [getattr(A, k) for A in (KII, MII) for k in CSR] + [KIB, MIB, load, np.asarray(f_shift, float)],
+        (float(fmax_hz), int(depth), float(tol)),
+    )
+    if key in _INTERIOR_BASES:
+        _INTERIOR_BASES.move_to_end(key)
+        return _INTERIOR_BASES[key]
+    with ShiftedInterior(KII, MII) as shifted:
+        lu = shifted.factor(0.0)
+        psi = -lu.solve(KIB)
+        R0 = np.column_stack([load, MII @ psi + MIB])
+        X = [lu.solve(R0)]
+        X.append(lu.solve(MII @ X[-1]))  # static and first inertia correction
+        # a stiff shell (the footplate: first interior mode far above the band) needs no shifts
+        f1 = lowest_frequency_hz(KII, MII, lu)
+        for fs in f_shift if f1 < 2 * 1.2 * fmax_hz else ():
+            lus = shifted.factor((2 * np.pi * fs) ** 2)
+            Y = lus.solve(R0)
+            X.append(Y)
+            for _ in range(depth - 1):
+                Y = lus.solve(MII @ Y)
+                X.append(Y)
+    phi = orthonormalize(np.hstack(X), np.sqrt(np.abs(MII.diagonal())), tol)
+    for a in (psi, phi):
+        a.flags.writeable = False  # shared between models: nobody may change a kept basis
+    kept = _INTERIOR_BASES[key] = (psi, phi, f1)
+    while len(_INTERIOR_BASES) > INTERIOR_BASES_KEPT:
+        _INTERIOR_BASES.popitem(last=False)
+    return kept
+
+
 def shell_basis(level1, fmax_hz: float, n_shifts: int | None = None, depth: int = 2, tol: float = 1e-10):
     """Real basis V (n × m) of the level-1 ear: unit vectors on the kept dofs, each shell's interior reduced.
 
@@ -170,25 +237,22 @@ def shell_basis(level1, fmax_hz: float, n_shifts: int | None = None, depth: int 
         if I.size == 0:
             continue
         Ks, Ms = sp.csr_matrix(level1.stiffness[s]), sp.csr_matrix(level1.mass.get(s, sp.csr_matrix((n, n))))
-        KII, MII = Ks[I][:, I].tocsr(), Ms[I][:, I].tocsr()
-        with ShiftedInterior(KII, MII) as shifted:
-            lu = shifted.factor(0.0)
-            psi = -lu.solve(Ks[I][:, B].toarray())
-            live = np.abs(psi).sum(axis=0) > 0
-            R0 = np.column_stack([level1.load[I], (MII @ psi + Ms[I][:, B].toarray())[:, live]])
-            X = [lu.solve(R0)]
-            X.append(lu.solve(MII @ X[-1]))  # static and first inertia correction
-            # a stiff shell (the footplate: first interior mode far above the band) needs no shifts
-            f1 = lowest_frequency_hz(KII, MII, lu)
-            info[f"{s}_first_interior_hz"] = f1
-            for fs in f_shift if f1 < 2 * 1.2 * fmax_hz else ():
-                lus = shifted.factor((2 * np.pi * fs) ** 2)
-                Y = lus.solve(R0)
-                X.append(Y)
-                for _ in range(depth - 1):
-                    Y = lus.solve(MII @ Y)
-                    X.append(Y)
-        phi = orthonormalize(np.hstack(X), np.sqrt(np.abs(MII.diagonal())), tol)
+        KIB = Ks[I][:, B]
+        live = np.asarray(abs(KIB).sum(axis=0)).ravel() > 0  # the kept dofs the shell couples to
+        psi_live, phi, f1 = interior_basis(
+            Ks[I][:, I].tocsr(),
+            Ms[I][:, I].tocsr(),
+            KIB[:, live].toarray(),
+            Ms[I][:, B][:, live].toarray(),
+            level1.load[I],
+            f_shift,
+            fmax_hz,
+            depth,
+            tol,
+        )
+        psi = np.zeros((I.size, B.size))
+        psi[:, live] = psi_live
+        info[f"{s}_first_interior_hz"] = f1
         blocks.append((s, I, psi, phi))
         info[f"{s}_interior_dofs"], info[f"{s}_vectors"] = int(I.size), int(phi.shape[1])
     m = B.size + sum(b[3].shape[1] for b in blocks)
