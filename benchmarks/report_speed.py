@@ -58,6 +58,7 @@ def _run(label: str, args: list[str], env: dict[str, str], out: Path) -> dict:
         "wall_s": wall_s,
         "peak_rss_gb": peak_kb / 1024**2,
         "steps_s": run["timings_s"],
+        "peak_gb_after_step": run.get("peak_memory_gb_after_step", {}),
         "cached_steps": run.get("cached_steps", []),
     }
 
@@ -67,9 +68,11 @@ def _print(result: dict) -> None:
     # run.json's timings hold the steps and their "total": shares are of the total
     total = steps.get("total") or sum(steps.values()) or 1.0
     print(f"{result['label']}: {result['wall_s']:.1f} s wall, peak {result['peak_rss_gb']:.2f} GB")
+    peak = result.get("peak_gb_after_step", {})
     for name, seconds in sorted(steps.items(), key=lambda kv: -kv[1]):
         mark = " (cached)" if name in result["cached_steps"] else ""
-        print(f"  {name:18s} {seconds:7.1f} s  {100 * seconds / total:5.1f} %{mark}")
+        after = f"  peak {peak[name]:.2f} GB after it" if name in peak else ""
+        print(f"  {name:18s} {seconds:7.1f} s  {100 * seconds / total:5.1f} %{mark}{after}")
 
 
 def main(argv=None) -> int:

@@ -43,7 +43,7 @@ def geometry_trends_step(ctx) -> tuple[dict, dict]:
     """β against the pedicle's thickness and α against the gap's: FE points, lumped curves, slopes."""
     from isj.calibration.checks import lumped_static
     from isj.calibration.runner import run_geometry_designs
-    from isj.fem.batch import evaluate_design
+    from isj.fem.batch import evaluate_design, transient_models
 
     cfg = ctx.config
     t = cfg.geometry_trends
@@ -62,12 +62,13 @@ def geometry_trends_step(ctx) -> tuple[dict, dict]:
         # the report's own value among the FE points: the reference law goes through it
         xf = sorted({x0, *(float(v) for v in np.geomspace(lo, hi, t.fe_points))} if t.fe_points else {x0})
         plan.append((dim, output, law, x0, lo, hi, xf))
-    # the report's geometry last: the other steps' model of it is then the newest one memoised
+    # the report's geometry last
     items = [(base, {dim: v}) for dim, *_, x0, _, _, xf in plan for v in xf if v != x0]
     items.append((base, {}))
-    records = run_geometry_designs(
-        items, evaluate_design, ctx.settings, ctx.fe_cache_dir, max_workers=0, progress=ctx.progress
-    )
+    with transient_models():  # the other geometries' models are not needed again: one at a time
+        records = run_geometry_designs(
+            items, evaluate_design, ctx.settings, ctx.fe_cache_dir, max_workers=0, progress=ctx.progress
+        )
     fe = {tuple(sorted(r["settings"]["geometry"].items())): r["result"] for r in records}
     for dim, output, law, x0, lo, hi, xf in plan:
         points = []

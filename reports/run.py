@@ -25,6 +25,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import resource
 import shutil
 import sys
 import time
@@ -159,6 +160,20 @@ def run_report(
     return summary
 
 
+def _peak_memory_gb() -> float:
+    """This process's peak resident memory so far (GB; ``ru_maxrss`` is in KiB on Linux)."""
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024**2
+
+
+def _memory_gb() -> float | None:
+    """This process's resident memory now (GB), from ``/proc/self/statm``; None without it."""
+    try:
+        pages = int(Path("/proc/self/statm").read_text().split()[1])
+    except (OSError, IndexError, ValueError):
+        return None
+    return pages * os.sysconf("SC_PAGE_SIZE") / 1024**3
+
+
 def _run(config: ReportConfig, out: Path, staging: Path, verbosity: int, cache_dir, cal, t_start) -> dict:
     """Every step, the data files and the PDF, written into ``staging`` (``out`` is only read)."""
     from . import csvdata, pdf
@@ -171,7 +186,7 @@ def _run(config: ReportConfig, out: Path, staging: Path, verbosity: int, cache_d
 
     ctx = Context(config, cal, _fe_cache_dir(), progress=verbosity >= 1)
     store = StepStore(cache_dir or default_cache_dir())
-    results, arrays, timings, cached, keys = {}, {}, {}, [], {}
+    results, arrays, timings, cached, keys, peak, held = {}, {}, {}, [], {}, {}, {}
     for i, (name, fn, sections) in enumerate(STEPS, 1):
         key = keys[name] = step_key(name, step_inputs(ctx, sections, fn))
         t0 = time.perf_counter()
@@ -187,6 +202,8 @@ def _run(config: ReportConfig, out: Path, staging: Path, verbosity: int, cache_d
             res, arr = hit
             cached.append(name)
         timings[name] = time.perf_counter() - t0
+        peak[name] = _peak_memory_gb()
+        held[name] = _memory_gb()
         say(
             f"[{i}/{len(STEPS)}] {name}: {'cached' if hit else 'done'} ({timings[name]:.1f} s)",
             1 if hit else 2,
@@ -227,6 +244,10 @@ def _run(config: ReportConfig, out: Path, staging: Path, verbosity: int, cache_d
         {
             "provenance": provenance,
             "timings_s": timings,
+            # the process's peak resident memory so far, after each step: the step that raises
+            # it is the one that sets the run's peak (not part of any key or compared output)
+            "peak_memory_gb_after_step": peak,
+            "memory_gb_after_step": held,  # resident now: what the steps before still hold
             "cached_steps": cached,
             "pages": pages,
             "step_keys": keys,

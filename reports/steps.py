@@ -404,7 +404,7 @@ STEPS = (
     # of [design] only the load: the moduli are drawn from their distributions and the rest are
     # isj uq's defaults (tests/test_uq.py checks that no other [design] key changes the result)
     ("uq", uq_step, ("design.pressure_pa", "geometry", "mesh", "ear", "sweep", "transmission", "uq")),
-    # last: its FE geometries may push the report geometry's model out of fem.batch's memo
+    # last: its FE geometries are many (fem.batch.transient_models drops their models after it)
     ("geometry_trends", geometry_trends_step, ("design", "geometry", *MESH_NO_DRUM, "geometry_trends")),
 )
 

@@ -13,6 +13,7 @@ import pypdf
 import pytest
 from isj.reports import layout, pdf
 from isj.reports.config import ReportConfig, load_config
+from isj.reports.steps import STEPS
 
 from isj.cli import main
 from isj.errors import ConfigError
@@ -177,6 +178,13 @@ def test_data_files_and_resolved_config(report):
     assert load_config(out / "resolved_config.toml") == report["config"]
     run = json.loads((out / "run.json").read_text())
     assert "numpy" in run["provenance"]["versions"]
+    # the process's peak memory after each step, in step order: a running peak never falls
+    peak = run["peak_memory_gb_after_step"]
+    assert set(peak) == {name for name, _, _ in STEPS}  # the file's keys are sorted
+    gb = [peak[name] for name, _, _ in STEPS]
+    assert gb[0] > 0 and all(a <= b for a, b in zip(gb[:-1], gb[1:], strict=True))
+    held = run["memory_gb_after_step"]  # resident after each step: never above the peak so far
+    assert all(0 < held[name] <= 1.001 * peak[name] for name, _, _ in STEPS)
     assert not [p for p in out.rglob(".*")]  # no temp files left
 
 

@@ -1,0 +1,58 @@
+"""fem/batch.py's memo of models: what transient_models keeps, with a stand-in model (no meshing)."""
+
+import dataclasses
+
+import pytest
+from isj.fem import batch
+
+from isj.design import Geometry
+from isj.errors import InvalidParameter
+
+
+class _Mesh:
+    def content_hash(self) -> str:
+        return "stand-in"
+
+
+class _StandIn:
+    built = 0
+
+    def __init__(self, geometry, order, resolution, joint):
+        type(self).built += 1
+        self.geometry, self.mesh = geometry, _Mesh()
+
+
+@pytest.fixture
+def stand_in(monkeypatch):
+    monkeypatch.setattr(batch, "PedicleJointModel", _StandIn)
+    monkeypatch.setattr(batch, "_MODELS", {})
+    _StandIn.built = 0
+    return _StandIn
+
+
+def _geometry(k: int) -> Geometry:
+    return dataclasses.replace(Geometry(), gap_thickness_m=Geometry().gap_thickness_m * (1 + 0.05 * k))
+
+
+def test_a_transient_block_keeps_one_new_model_at_a_time_and_restores_the_memo(stand_in):
+    report_model = batch._model(Geometry(), 2, 1.0)
+    with batch.transient_models():
+        for k in range(1, 4):
+            batch._model(_geometry(k), 2, 1.0)
+            new = [m for m, _ in batch._MODELS.values() if m.geometry != Geometry()]
+            assert len(new) == 1 and new[0].geometry == _geometry(k)  # the older ones dropped
+        assert batch._model(Geometry(), 2, 1.0) is report_model  # kept through the block
+    assert list(batch._MODELS.values()) == [report_model]
+    assert stand_in.built == 4
+
+
+def test_outside_a_block_the_memo_keeps_its_four_newest(stand_in):
+    for k in range(6):
+        batch._model(_geometry(k), 2, 1.0)
+    assert [m.geometry for m, _ in batch._MODELS.values()] == [_geometry(k) for k in range(2, 6)]
+
+
+@pytest.mark.parametrize("bad", [0, -1, 1.5, True])
+def test_transient_models_refuses_a_bad_count(bad):
+    with pytest.raises(InvalidParameter, match="max_new"), batch.transient_models(bad):
+        pass
