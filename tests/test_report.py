@@ -527,3 +527,24 @@ def test_calibration_page_shows_the_geometry_domain(report):
     assert f"held out: max |error| alpha {100 * cal['validation']['max_alpha']:.1f} %" in text
     for k, (lo, hi) in GEOMETRY_DOMAIN_M.items():
         assert k in text and f"{lo * 1e6:7.2f}".strip() in text and f"{hi * 1e6:7.2f}".strip() in text
+
+
+def test_the_drum_bands_the_report_states_are_the_convergence_benchmarks():
+    """DRUM_CONVERGENCE holds benchmarks/drum_convergence.py's stored measurement, not typed numbers."""
+    from pathlib import Path
+
+    from isj.reports.transmission_step import DRUM_CONVERGENCE, drum_convergence
+
+    stored = json.loads(
+        (Path(__file__).parents[1] / "benchmarks" / "results" / "drum_convergence.json").read_text()
+    )
+    bands = stored["converged_band_against_finest_hz"]
+    assert {float(k) for k in bands} == set(DRUM_CONVERGENCE["drums"])
+    for size, band in DRUM_CONVERGENCE["drums"].items():
+        measured = bands[next(k for k in bands if float(k) == size)]
+        assert band["h_v_1db_hz"] == pytest.approx(measured["h_v_1db_hz"], abs=0.1)
+        assert band["delta_0p1db_hz"] == pytest.approx(measured["delta_0.1db_hz"], abs=0.1)
+        assert band["delta_1deg_hz"] == pytest.approx(measured["delta_1deg_hz"], abs=0.1)
+    assert DRUM_CONVERGENCE["against_m"] == min(r["drum_mesh_size_m"] for r in stored["rows"])
+    assert drum_convergence(ReportConfig().mesh.drum_mesh_size_m)["within_1db_up_to_hz"] > 10e3
+    assert drum_convergence(0.2e-3)["within_1db_up_to_hz"] is None  # not measured: not stated
