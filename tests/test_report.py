@@ -212,6 +212,8 @@ def test_defaults_file_and_overrides_in_that_order(tmp_path):
         ("[sweep]\nfmax_hz = 50\n", [], "sweep.fmax_hz"),
         ("[sweep]\nn_freq = 2.5\n", [], "sweep.n_freq"),
         ("[mesh]\norder = 3\n", [], "mesh.order"),
+        ("[mesh]\ndrum_mesh_size_m = 1e-3\n", [], "mesh.drum_mesh_size_m"),
+        ("", ["mesh.drum_mesh_size_m=1e-5"], "mesh.drum_mesh_size_m"),
         ("[geometry]\npedicle_x_m = 400e-6\n", [], "pedicle_x_m"),
         ("[trends]\nmoduli = ['incus']\n", [], "trends.moduli"),
         ("", ["geometry_trends.fe_points=1"], "geometry_trends.fe_points"),
