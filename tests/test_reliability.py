@@ -920,11 +920,14 @@ def test_two_adaptive_calibrations_at_once_on_one_fe_cache_write_the_same_artifa
     assert first == second == adaptive_reference["artifact"]  # bit for bit, and as a lone run's
     records = {p.stem for p in _design_records(shared / "fe")}
     assert records == {p.stem for p in _design_records(adaptive_reference["caches"] / "fe")}
-    puts = [(tmp_path / f"put-{i}").read_text().split() for i in (1, 2)]
+    # a run that found every design already stored by the other stores none: it has no file
+    put_files = [tmp_path / f"put-{i}" for i in (1, 2)]
+    puts = [f.read_text().split() if f.exists() else [] for f in put_files]
     assert all(len(set(k)) == len(k) for k in puts)  # neither stored a design twice
     assert set(puts[0]) | set(puts[1]) == records  # every record was stored by one of them
-    # Not asserted: the FE design records are not locked, so both runs evaluate every design
-    # (18 stores each when measured); the stores are atomic and the results the same bits.
+    # Not asserted: the FE design records are not locked, so both runs usually evaluate every
+    # design (18 stores each when measured; none, in one fresh-check, when the other run had
+    # stored them all first); the stores are atomic and the results the same bits.
     assert _leftovers(shared) == []
 
 
