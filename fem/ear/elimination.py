@@ -80,6 +80,48 @@ class ConstraintBuilder:
         return T, free
 
 
+def _products(indptr: np.ndarray, rows: np.ndarray, cols: np.ndarray):
+    """(e, pa, pb): for each product T[r, a] T[c, b] of entry e = (r, c), in order of e and then
+    of (a, b) row-major, e and the positions of its two factors in T's data.
+
+    Most rows of T hold one entry (a free dof is its own reduced dof): those entries have one
+    product each and are placed directly; only the tied and clamped ones are expanded.
+    """
+    count = np.diff(indptr)
+    cr, cc = count[rows], count[cols]
+    nprod = cr * cc  # entries on clamped dofs have none
+    start = np.cumsum(nprod) - nprod
+    e = np.repeat(np.arange(rows.size), nprod)
+    pa = np.empty(e.size, np.int64)
+    pb = np.empty(e.size, np.int64)
+    one = np.flatnonzero(nprod == 1)
+    pa[start[one]] = indptr[rows[one]]
+    pb[start[one]] = indptr[cols[one]]
+    many = np.flatnonzero(nprod > 1)
+    if many.size:
+        n_many = nprod[many]
+        k = np.arange(n_many.sum()) - np.repeat(np.cumsum(n_many) - n_many, n_many)  # within each entry
+        at = np.repeat(start[many], n_many) + k
+        i, j = np.divmod(k, np.repeat(cc[many], n_many))
+        pa[at] = indptr[np.repeat(rows[many], n_many)] + i
+        pb[at] = indptr[np.repeat(cols[many], n_many)] + j
+    return e, pa, pb
+
+
+def _unique_nearly_sorted(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``np.unique(keys, return_inverse=True)``, with a stable sort: the keys of an assembled
+    pattern come mostly in order, where it is several times faster than np.unique's quicksort.
+    The same arrays either way (the sorted unique keys, and each key's index among them)."""
+    order = np.argsort(keys, kind="stable")
+    ordered = keys[order]
+    first = np.empty(ordered.size, bool)
+    first[:1] = True
+    np.not_equal(ordered[1:], ordered[:-1], out=first[1:])
+    inv = np.empty(keys.size, np.int64)
+    inv[order] = np.cumsum(first) - 1
+    return ordered[first], inv
+
+
 class ReducedPattern:
     """The CSR pattern of Tᵀ K T for K with entries at fixed (rows, cols), and the map values → data.
 
@@ -95,21 +137,11 @@ class ReducedPattern:
         n_red = T.shape[1]
         rows = np.asarray(rows, dtype=np.int64)
         cols = np.asarray(cols, dtype=np.int64)
-        count = np.diff(T.indptr)
-        cr, cc = count[rows], count[cols]
-        nprod = cr * cc
-        live = np.flatnonzero(nprod)  # entries on clamped dofs vanish
-        nprod_live = nprod[live]
-        e = np.repeat(live, nprod_live)
-        start = np.cumsum(nprod_live) - nprod_live
-        k = np.arange(e.size) - np.repeat(start, nprod_live)
-        i, j = np.divmod(k, cc[e])
-        pa = T.indptr[rows[e]] + i
-        pb = T.indptr[cols[e]] + j
+        e, pa, pb = _products(T.indptr, rows, cols)
         a = T.indices[pa].astype(np.int64)
         b = T.indices[pb].astype(np.int64)
         w = T.data[pa] * T.data[pb]
-        key, inv = np.unique(a * n_red + b, return_inverse=True)
+        key, inv = _unique_nearly_sorted(a * n_red + b)
         r, c = np.divmod(key, n_red)
         self.n = n_red
         self.indices = c.astype(np.int32)
