@@ -44,6 +44,10 @@ N_TRAIN = 1024
 N_VALIDATE = 8192
 MAX_SNAPSHOTS = 120
 
+#: Surrogates shipped with isj (the default mesh's, ``scripts/ship_surrogate.py``): each as its
+#: greedy's global arrays, named by its cache key; the local stage is redone when it is read.
+SHIPPED_DIR = Path(__file__).with_name("data")
+
 #: Designs above which :meth:`ReducedModel.evaluate` splits the work over two threads
 #: (NumPy's batched solves release the GIL; measured 1.7× on 2 cores).
 THREAD_MIN = 20000
@@ -261,6 +265,14 @@ def cache_key(mesh_hash: str, order: int, geometry: Geometry, space: DesignSpace
     return hashlib.sha256(canonical_json(payload).encode()).hexdigest()
 
 
+def surrogate_key(
+    mesh, order: int, geometry: Geometry, space: DesignSpace, tol: float, resolution: float, settings: dict
+) -> str:
+    """The key :func:`reduced_model` files a surrogate under; the solver in ``settings`` is not part of it."""
+    keyed = {"tol": tol, "resolution": resolution} | {k: v for k, v in settings.items() if k != "solver"}
+    return cache_key(mesh.content_hash(), order, geometry, space, keyed)
+
+
 def build_reduced_model(
     model,
     space: DesignSpace | None = None,
@@ -283,8 +295,6 @@ def build_reduced_model(
     ``steps`` (:class:`isj.fem.rom.offline.GreedySteps`) keeps each finished greedy step on
     disk and resumes from those a killed build left; without it nothing is written.
     """
-    from ..ear.joint_condensation import one_blas_thread
-    from .local import local_bases, pack, relative_bounds
     from .offline import Greedy, run_greedy
 
     space = space or DesignSpace()
@@ -295,20 +305,9 @@ def build_reduced_model(
             raise InvalidParameter(f"{k} = {(lo, hi)!r} Pa: the surrogate needs low < high")
     t0 = time.perf_counter()
     greedy = Greedy(model, space, solver)
-    corners = space.corners()
-    train = np.concatenate([corners, space.sample(n_train, seed)])
-    validate = np.concatenate(
-        [corners, space.from_unit(_edge_midpoints()), space.sample(n_validate, seed + 1)]
-    )
+    train = np.concatenate([space.corners(), space.sample(n_train, seed)])
+    validate = _validation_designs(space, n_validate, seed)
     hist = run_greedy(greedy, train, validate, tol, max_steps=max_snapshots, progress=progress, steps=steps)
-    arrays = greedy.arrays(orthogonality=True)
-    t_local = time.perf_counter()
-    with one_blas_thread():  # small dense work: OpenBLAS's threads only wait for each other
-        boxes, sizes = local_bases(arrays, space, tol, seed=seed)
-    arrays |= pack(boxes)
-    local_max = float(
-        np.max(relative_bounds(arrays, space.theta(validate), boxes=boxes, t=space.to_unit(validate))[0])
-    )
     meta = {
         "mesh_hash": model.mesh.content_hash(),
         "order": model.order,
@@ -320,17 +319,50 @@ def build_reduced_model(
         "tol": tol,
         "converged": hist["converged"],
         "validate_max_rel_bound": hist["validate_max_rel_bound"],
-        "local_sizes": sizes,
-        "local_validate_max_rel_bound": local_max,
-        "local_time_s": time.perf_counter() - t_local,
         "n_validate": int(validate.shape[0]),
         "history": hist["history"],
-        "build_time_s": time.perf_counter() - t0,
         "timings_s": dict(greedy.timings_s),
         "representer_rel_error": greedy.xsolve.rel,
         "resumed_snapshots": steps.restored if steps is not None else 0,
     }
-    return ReducedModel(arrays, space, meta)
+    rom = local_stage(
+        greedy.arrays(orthogonality=True), space, meta, tol=tol, n_validate=n_validate, seed=seed
+    )
+    rom.meta["build_time_s"] = time.perf_counter() - t0
+    return rom
+
+
+def _validation_designs(space: DesignSpace, n_validate: int, seed: int) -> np.ndarray:
+    """The greedy's validation set: the corners, the box's 80 edge midpoints, ``n_validate`` Sobol designs."""
+    return np.concatenate(
+        [space.corners(), space.from_unit(_edge_midpoints()), space.sample(n_validate, seed + 1)]
+    )
+
+
+def local_stage(
+    arrays: dict, space: DesignSpace, meta: dict, *, tol: float, n_validate: int, seed: int
+) -> ReducedModel:
+    """The surrogate from the greedy's global arrays: the sub-boxes' local bases added and validated.
+
+    Deterministic in its inputs (one BLAS thread), so a surrogate whose global arrays were
+    stored (:func:`ship`) is completed here to the one a build gives.
+    """
+    from ..ear.joint_condensation import one_blas_thread
+    from .local import local_bases, pack, relative_bounds
+
+    t0 = time.perf_counter()
+    with one_blas_thread():  # small dense work: OpenBLAS's threads only wait for each other
+        boxes, sizes = local_bases(arrays, space, tol, seed=seed)
+    validate = _validation_designs(space, n_validate, seed)
+    local_max = float(
+        np.max(relative_bounds(arrays, space.theta(validate), boxes=boxes, t=space.to_unit(validate))[0])
+    )
+    meta = dict(meta) | {
+        "local_sizes": sizes,
+        "local_validate_max_rel_bound": local_max,
+        "local_time_s": time.perf_counter() - t0,
+    }
+    return ReducedModel(dict(arrays) | pack(boxes), space, meta)
 
 
 def _edge_midpoints() -> np.ndarray:
@@ -354,13 +386,18 @@ def reduced_model(
     *,
     tol: float = DEFAULT_TOL,
     cache: bool = True,
+    shipped: bool = True,
     progress=None,
     **settings,
 ) -> ReducedModel:
-    """The surrogate for a mesh: from the cache if there, else built (minutes) and stored.
+    """The surrogate for a mesh: from the cache if there, else shipped or built (minutes), and stored.
 
     ``settings`` go to :func:`build_reduced_model` (``n_train``, ``n_validate``, ``seed``,
     ``max_snapshots``, ``solver``).
+
+    On a cache miss the surrogate shipped with isj for the same key (the default mesh's,
+    :data:`SHIPPED_DIR`) is taken when there is one and ``shipped`` is true: a few seconds
+    instead of minutes, and the same arrays as a build on the machine that made it.
 
     A build keeps each finished greedy step in ``rom-<key>.steps/`` beside the entry
     (:class:`isj.fem.rom.offline.GreedySteps`), so that a killed build resumes at its last
@@ -374,8 +411,7 @@ def reduced_model(
     geometry = geometry or Geometry()
     space = space or DesignSpace()
     mesh = mesh_pedicle_joint(geometry, resolution=resolution)
-    keyed = {"tol": tol, "resolution": resolution} | {k: v for k, v in settings.items() if k != "solver"}
-    key = cache_key(mesh.content_hash(), order, geometry, space, keyed)
+    key = surrogate_key(mesh, order, geometry, space, tol, resolution, settings)
     path = rom_cache_dir() / f"rom-{key[:32]}.npz"
     if not cache:
         return _build(geometry, order, resolution, mesh, space, tol, progress, None, settings)
@@ -385,15 +421,64 @@ def reduced_model(
                 return ReducedModel.load(path)
             except DamagedEntry as exc:
                 discard(path, "surrogate", str(exc), stacklevel=2)
-        steps = GreedySteps(path.with_suffix(".steps"), key)
-        rom = _build(geometry, order, resolution, mesh, space, tol, progress, steps, settings)
+        local = {
+            "tol": tol,
+            "n_validate": settings.get("n_validate", N_VALIDATE),
+            "seed": settings.get("seed", 0),
+        }
+        rom = load_shipped(key, space, **local) if shipped else None
+        steps = None
+        if rom is None:
+            steps = GreedySteps(path.with_suffix(".steps"), key)
+            rom = _build(geometry, order, resolution, mesh, space, tol, progress, steps, settings)
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
             rom.save(path)
         except OSError as exc:
             warnings.warn(f"could not write surrogate cache entry {path}: {exc}", CacheWarning, stacklevel=2)
         else:
-            steps.clear()
+            if steps is not None:
+                steps.clear()
+    return rom
+
+
+def ship(rom: ReducedModel, key: str, folder: Path | None = None) -> Path:
+    """Store a built surrogate under its cache ``key`` for :func:`load_shipped`; return the file.
+
+    Only the greedy's global arrays and the build's record are kept (compressed, checksummed):
+    the sub-boxes' local bases are ten times their size and :func:`local_stage` remakes them.
+    """
+    arrays = {k: v for k, v in rom.arrays.items() if not k.startswith("box")}
+    meta = {k: v for k, v in rom.meta.items() if not k.startswith("local_")}
+    meta |= {"key": key, "space": rom.space.to_record(), "format": ROM_FORMAT_VERSION}
+    path = Path(folder or SHIPPED_DIR) / f"rom-{key[:32]}.npz"
+    write_npz_entry(path, arrays | {"meta_json": np.array(canonical_json(meta))}, compressed=True)
+    return path
+
+
+def load_shipped(
+    key: str, space: DesignSpace, *, tol: float, n_validate: int, seed: int, folder: Path | None = None
+) -> ReducedModel | None:
+    """The shipped surrogate of cache ``key``, completed by :func:`local_stage`; None if none ships.
+
+    A file is taken only when the full key it records is ``key``: the same mesh (content hash),
+    order, geometry, design space, greedy settings and results versions. A damaged one is
+    reported (:class:`isj.errors.CacheWarning`) and passed over, so the surrogate is built.
+    """
+    path = Path(folder or SHIPPED_DIR) / f"rom-{key[:32]}.npz"
+    if not path.exists():
+        return None
+    try:
+        arrays, _ = read_npz_entry(path)
+        meta = json.loads(str(arrays.pop("meta_json")))
+        if meta.pop("key") != key or meta.pop("format") != ROM_FORMAT_VERSION:
+            return None
+    except (DamagedEntry, KeyError, ValueError) as exc:
+        warnings.warn(f"shipped surrogate {path} is damaged ({exc}); building it", CacheWarning, stacklevel=3)
+        return None
+    meta.pop("space", None)  # the key holds the space: it is ``space``
+    rom = local_stage(arrays, space, meta, tol=tol, n_validate=n_validate, seed=seed)
+    rom.meta["shipped"] = True
     return rom
 
 
