@@ -96,6 +96,11 @@ UNITS = ("m/s", "m/s", "m", "m", "rad", "rad", "1")
 BLOCK = 64
 
 
+#: Where the fast ears shipped with isj lie (package data): the default report's, so that a new
+#: user's first report does not build it (docs/fast_ear.md §14.7, scripts/ship_fast_ear.py).
+SHIPPED_DIR = Path(__file__).with_name("data")
+
+
 def fast_ear_cache_dir() -> Path:
     """``$ISJ_FE_CACHE_DIR/fast_ear``, else ``~/.cache/isj/fe/fast_ear``: beside the surrogate's."""
     from isj.caches import fe_cache_dir
@@ -883,10 +888,16 @@ def fast_ear(
     fmax_hz: float = 20e3,
     pod_tol: float = DEFAULT_POD_TOL,
     cache: bool = True,
+    shipped: bool = True,
     **settings,
 ) -> FastEar:
     """The fast ear of ``model``: from the cache (``$ISJ_FE_CACHE_DIR/fast_ear``) if there, else
-    built (:func:`build_fast_ear`, ``settings`` its other keywords) and stored."""
+    shipped or built (:func:`build_fast_ear`, ``settings`` its other keywords), and stored.
+
+    On a cache miss the fast ear shipped with isj under the same full key (the default report's,
+    :data:`SHIPPED_DIR`) is taken when ``shipped`` is true: a second instead of about a minute,
+    the arrays of a build on the machine that made it.
+    """
     keyed = {"fmax_hz": float(fmax_hz), "pod_tol": float(pod_tol)}
     keyed |= {
         k: (np.asarray(v).tolist() if v is not None else None) for k, v in settings.items() if k != "solver"
@@ -898,7 +909,9 @@ def fast_ear(
             return FastEar.load(path)
         except DamagedEntry as exc:
             discard(path, "fast ear", str(exc), stacklevel=2)
-    out = build_fast_ear(model, ear_materials, masses, fmax_hz, pod_tol=pod_tol, **settings)
+    out = load_shipped(key) if shipped else None
+    if out is None:
+        out = build_fast_ear(model, ear_materials, masses, fmax_hz, pod_tol=pod_tol, **settings)
     if cache:
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
@@ -906,6 +919,96 @@ def fast_ear(
         except OSError as exc:
             warnings.warn(f"could not write fast-ear cache entry {path}: {exc}", CacheWarning, stacklevel=2)
     return out
+
+
+def cache_key_of(
+    model,
+    ear_materials: EarMaterials | None = None,
+    masses: EarMasses | None = None,
+    fmax_hz: float = 20e3,
+    pod_tol: float = DEFAULT_POD_TOL,
+) -> str:
+    """The cache key :func:`fast_ear` gives these arguments (no other settings)."""
+    return cache_key(model, ear_materials, masses, {"fmax_hz": float(fmax_hz), "pod_tol": float(pod_tol)})
+
+
+def _pack_symmetric(name: str, a: np.ndarray) -> dict:
+    """A square part as the rows of its upper triangle (CSR) when it is symmetric bit for bit,
+    else all of it: most of a part is zero, and the parts are symmetric (the ear's are)."""
+    sym = bool(np.array_equal(a, a.T))
+    m = sp.csr_matrix(np.triu(a) if sym else a)
+    if np.count_nonzero(np.signbit(a) & (a == 0)):  # −0.0 would come back as +0.0
+        return {name: a}
+    return {
+        f"{name}|data": m.data,
+        f"{name}|indices": m.indices.astype(np.int32),
+        f"{name}|indptr": m.indptr.astype(np.int64),
+        f"{name}|shape": np.array(a.shape, np.int64),
+        f"{name}|symmetric": np.array(sym),
+    }
+
+
+def _unpack_symmetric(arrays: dict) -> dict:
+    """The arrays :func:`_pack_symmetric` packed, as they were and in the order they were stored:
+    the parts are summed in that order (:meth:`FastEar.joint`), so it decides the last bits."""
+    out = {}
+    for key in arrays:
+        name = key.split("|")[0]
+        if name in out:
+            continue
+        if name == key:
+            out[name] = arrays[key]
+            continue
+        m = sp.csr_matrix(
+            (arrays[f"{name}|data"], arrays[f"{name}|indices"], arrays[f"{name}|indptr"]),
+            shape=tuple(arrays[f"{name}|shape"]),
+        )
+        a = m.toarray()
+        if bool(arrays[f"{name}|symmetric"]):
+            a = a + np.triu(a, 1).T  # the lower triangle is zero: each entry is one number, exact
+        out[name] = a
+    return out
+
+
+def ship(ear: FastEar, key: str, folder: Path | None = None) -> Path:
+    """Store a built fast ear under its cache ``key`` for :func:`load_shipped`; return the file.
+
+    The m × m parts are mostly zero and symmetric: they are kept as their upper triangles' nonzeros
+    (compressed, checksummed), about 1/50 of the cache entry.
+    """
+    packed = {}
+    for k, v in ear.arrays.items():
+        packed |= _pack_symmetric(k, v) if k[:2] in ("k:", "m:", "d:") else {k: v}
+    meta = ear.meta | {"format": FAST_EAR_FORMAT_VERSION, "space": ear.space.to_record(), "key": key}
+    path = Path(folder or SHIPPED_DIR) / f"fast-ear-{key[:32]}.npz"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    write_npz_entry(path, packed | {"meta_json": np.array(canonical_json(meta))}, compressed=True)
+    return path
+
+
+def load_shipped(key: str, folder: Path | None = None) -> FastEar | None:
+    """The fast ear shipped under cache ``key``; None if none ships.
+
+    A file is taken only when the full key it records is ``key``: the same meshes (contents),
+    geometry, ear materials, masses, settings and results versions. A damaged one is reported
+    (:class:`isj.errors.CacheWarning`) and passed over, so the fast ear is built.
+    """
+    path = Path(folder or SHIPPED_DIR) / f"fast-ear-{key[:32]}.npz"
+    if not path.exists():
+        return None
+    try:
+        arrays, _ = read_npz_entry(path)
+        meta = json.loads(str(arrays.pop("meta_json")))
+        if meta.pop("key") != key or meta.pop("format") != FAST_EAR_FORMAT_VERSION:
+            return None
+        space = DesignSpace.from_record(meta.pop("space"))
+        arrays = _unpack_symmetric(arrays)
+    except (DamagedEntry, KeyError, TypeError, ValueError) as exc:
+        warnings.warn(f"shipped fast ear {path} is damaged ({exc}); building it", CacheWarning, stacklevel=3)
+        return None
+    ear = FastEar(arrays, space, meta)
+    ear.meta["shipped"] = True
+    return ear
 
 
 def fast_ear_sweep(
@@ -951,7 +1054,11 @@ def fast_ear_sweep(
 
 
 __all__ = [
+    "SHIPPED_DIR",
+    "cache_key_of",
     "fast_ear_sweep",
+    "load_shipped",
+    "ship",
     "FastEar",
     "build_fast_ear",
     "fast_ear",
