@@ -25,11 +25,15 @@ def sliding_step(ctx) -> tuple[dict, dict]:
     """α, β, β/α and the capsule's share of the joint's shear, per case and joint (FE), and the
     lumped model's α, β, β/α with the calibration of each joint (none for the layer)."""
     from isj.calibration.checks import lumped_static
+    from isj.fem.batch import shared_model
     from isj.fem.model import compare_cases
 
     from isj.cases import THESIS_CASES
 
     cfg = ctx.config
+    # the bonded and sliding models of the other steps (and their kept static results: the
+    # cases step's seven bonded solves are these), built once per report
+    models = {j: shared_model(ctx.settings | {"joint": j})[0] for j in cfg.sliding.joints if j != "layer"}
     rows = compare_cases(
         order=cfg.mesh.order,
         resolution=cfg.mesh.resolution,
@@ -39,6 +43,7 @@ def sliding_step(ctx) -> tuple[dict, dict]:
         layer_shear_pa=cfg.sliding.layer_shear_pa,
         geometry=cfg.geometry,
         base=cfg.design.materials(),
+        models=models,
     )
     designs = [dataclasses.asdict(c.materials(cfg.design.materials())) for c in THESIS_CASES]
     for j in cfg.sliding.joints:

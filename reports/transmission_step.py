@@ -131,11 +131,8 @@ def fe_band(ctx, freq_hz: np.ndarray) -> tuple[dict, dict, dict, dict]:
         first_rom = rom if i == 0 else first_rom
     checks = fe_checks(ctx, ear, fast, rigid, first_rom, freq_hz, out)
     if t.sliding_cases:  # the same ear with the sliding joint (docs/model.md §2.12): FE reductions
-        from isj.fem.model import PedicleJointModel
-
-        mesh = cfg.mesh
-        jm = PedicleJointModel(cfg.geometry, order=mesh.order, resolution=mesh.resolution, joint="sliding")
-        sliding = MiddleEarModel(joint=jm, drum_mesh_size_m=mesh.drum_mesh_size_m)
+        jm, _ = shared_model(ctx.settings | {"joint": "sliding"})  # the sliding step's model too
+        sliding = MiddleEarModel(joint=jm, drum_mesh_size_m=cfg.mesh.drum_mesh_size_m)
         for name in t.sliding_cases:
             rom = es.reduced_ear(sliding, case_by_name(name).materials(base), cfg.ear, fmax_hz=t.fmax_hz)
             out[f"{name}_sliding"] = _columns(rom.frequency_response(freq_hz, damping))
