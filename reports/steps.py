@@ -21,7 +21,7 @@ from isj.calibration.checks import STATIC_KEYS, static_row
 
 from isj.cases import THESIS_BASE_ALPHA_RAD, THESIS_BASE_BETA_RAD, THESIS_CASES
 
-from .config import ReportConfig
+from .config import DesignConfig, ReportConfig
 from .geometry import geometry_calibration_summary, geometry_trends_step
 from .guard import guard_step
 from .sliding import lumped_calibration, sliding_step
@@ -387,19 +387,31 @@ def _ear_summary(r) -> dict:
 #: The [mesh] keys of the steps without an eardrum: a new drum mesh keeps their results.
 MESH_NO_DRUM = ("mesh.order", "mesh.resolution")
 
+#: The moduli every thesis case sets (:class:`isj.cases.ThesisCase`), whatever the base design's.
+CASE_MODULI = ("pedicle_e_pa", "gap_e_pa", "capsule_e_pa")
+
+#: The [design] keys of the steps that compute the thesis cases (and the rigid connection, which
+#: has no joint moduli) and nothing at the base design: a new pedicle, gap or capsule modulus keeps
+#: their results (tests/test_step_design_keys.py).
+DESIGN_OF_CASES = tuple(f"design.{k}" for k in DesignConfig.CONFIG_KEYS if k not in CASE_MODULI)
+
 #: Report sections in order: (name, function, the configuration sections it reads, or single
 #: keys of one, "section.key").
 STEPS = (
     ("model", model_step, ("design", "geometry", *MESH_NO_DRUM)),
-    ("cases", cases_step, ("design", "geometry", *MESH_NO_DRUM)),
+    ("cases", cases_step, (*DESIGN_OF_CASES, "geometry", *MESH_NO_DRUM)),
     ("trends", trends_step, ("design", "geometry", *MESH_NO_DRUM, "trends")),
     ("convergence", convergence_step, ("geometry", "convergence")),
     ("calibration", calibration_step, ("design", "geometry", *MESH_NO_DRUM, "calibration")),
     ("sweep", sweep_step, ("design", "geometry", *MESH_NO_DRUM, "sweep")),
-    ("ear", ear_step, ("design", "geometry", "mesh", "ear")),
-    ("transmission", transmission_step, ("design", "geometry", "mesh", "ear", "sweep", "transmission")),
+    ("ear", ear_step, (*DESIGN_OF_CASES, "geometry", "mesh", "ear")),
+    (
+        "transmission",
+        transmission_step,
+        (*DESIGN_OF_CASES, "geometry", "mesh", "ear", "sweep", "transmission"),
+    ),
     ("load_path", load_path_step, ("design", "geometry", "ear", "sweep", "transmission")),
-    ("sliding", sliding_step, ("design", "geometry", *MESH_NO_DRUM, "sliding")),
+    ("sliding", sliding_step, (*DESIGN_OF_CASES, "geometry", *MESH_NO_DRUM, "sliding")),
     ("guard", guard_step, ("design", "geometry", *MESH_NO_DRUM, "guard")),
     # of [design] only the load: the moduli are drawn from their distributions and the rest are
     # isj uq's defaults (tests/test_uq.py checks that no other [design] key changes the result)
