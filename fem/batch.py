@@ -188,6 +188,39 @@ def shared_model(settings: Mapping) -> tuple[PedicleJointModel, str]:
         return _model(_geometry(settings.get("geometry")), int(order), float(resolution), joint)
 
 
+#: Whole ears built in this process around a memoised joint model, by (joint, drum element size,
+#: rigid): each holds its constraint map and pattern (hundreds of MB on the default drum).
+_EARS: dict[tuple, tuple] = {}
+_MAX_EARS = 3
+
+
+def shared_ear(settings: Mapping, drum_mesh_size_m: float | None = None, rigid: bool = False):
+    """The whole ear (:class:`fem.ear.middle_ear.MiddleEarModel`) this process memoises around
+    :func:`shared_model`'s joint for ``settings``, or with ``rigid`` that ear's rigid connection.
+
+    For the report's steps, which build the same ear (2 s on the default drum) several times.
+    The ear holds no factorization between callers: a caller that solves with it frees its
+    solver (:meth:`~fem.ear.middle_ear.MiddleEarModel.free_solver`) when it is done.
+    """
+    from isj.ear import DEFAULT_DRUM_MESH_SIZE_M
+
+    from .ear.middle_ear import MiddleEarModel
+
+    drum = float(DEFAULT_DRUM_MESH_SIZE_M if drum_mesh_size_m is None else drum_mesh_size_m)
+    with _LOCK:
+        joint, _ = shared_model(settings)
+        key = (id(joint), drum, bool(rigid))  # the entry holds the joint: its id stays its own
+        if key not in _EARS:
+            if rigid:
+                ear = shared_ear(settings, drum).rigid_connection()
+            else:
+                ear = MiddleEarModel(joint=joint, drum_mesh_size_m=drum)
+            if len(_EARS) >= _MAX_EARS:
+                _EARS.pop(next(iter(_EARS)))  # oldest first
+            _EARS[key] = (joint, ear)
+        return _EARS[key][1]
+
+
 def evaluate_design(design: Mapping, settings: Mapping) -> dict:
     """Static FE response of one design (SI units, plain Python types).
 

@@ -315,21 +315,20 @@ def sweep_step(ctx: Context) -> tuple[dict, dict]:
 
 def ear_step(ctx: Context) -> tuple[dict, dict]:
     """The whole cat middle ear (docs/ear.md §5) with the joint model inside: static response per Pa."""
-    from isj.fem.batch import shared_model
-    from isj.fem.ear.middle_ear import MiddleEarModel
+    from isj.fem.batch import shared_ear
 
     from isj.ear import EXPERIMENT_STAPES_M_PER_PA, EXPERIMENT_UMBO_M_PER_PA, SPL_100DB_PEAK_PA
 
     cfg = ctx.config
-    joint, _ = shared_model(ctx.settings)
     base = cfg.design.materials()
-    ear = MiddleEarModel(joint=joint, drum_mesh_size_m=cfg.mesh.drum_mesh_size_m)
+    ear = shared_ear(ctx.settings, cfg.mesh.drum_mesh_size_m)  # the transmission and uq steps' too
     from tqdm import tqdm
 
     bar = tqdm(THESIS_CASES, desc="whole ear, 7 cases", unit="case", disable=not ctx.progress, leave=False)
     cases = {c.name: ear.static(c.materials(base), cfg.ear) for c in bar}
-    rigid_model = ear.rigid_connection()
+    rigid_model = shared_ear(ctx.settings, cfg.mesh.drum_mesh_size_m, rigid=True)
     rigid = rigid_model.static(base, cfg.ear)
+    ear.free_solver(), rigid_model.free_solver()  # the shared ears keep no factorization
     res0 = cases[THESIS_CASES[0].name]
     g = ear.geometry
     result = {

@@ -97,18 +97,17 @@ def fe_band(ctx, freq_hz: np.ndarray) -> tuple[dict, dict, dict, dict]:
     case is also reduced with FE: the fast ear is checked against it and against the rigid
     reduction, and the reduction against ``fe_checks`` direct harmonic solves.
     """
-    from isj.fem.batch import shared_model
+    from isj.fem.batch import shared_ear
     from isj.fem.ear import reduced_ear as es
     from isj.fem.ear.fast_ear import fast_ear
-    from isj.fem.ear.middle_ear import MiddleEarModel
 
     cfg, t = ctx.config, ctx.config.transmission
     damping = cfg.sweep.damping_model()
     states = cavity_states(t.cavities)
     base = cfg.design.materials()
-    joint, _ = shared_model(ctx.settings)
-    ear = MiddleEarModel(joint=joint, drum_mesh_size_m=cfg.mesh.drum_mesh_size_m)
-    rigid_model = ear.rigid_connection()
+    drum = cfg.mesh.drum_mesh_size_m
+    ear = shared_ear(ctx.settings, drum)  # the ear step's ears, built once per report
+    rigid_model = shared_ear(ctx.settings, drum, rigid=True)
     rigid = es.reduced_ear(rigid_model, base, cfg.ear, fmax_hz=t.fmax_hz)
     out = {"rigid": _columns(rigid.frequency_response(freq_hz, damping))}
     cav = {"rigid": cavity_columns(rigid, freq_hz, damping, states)}
@@ -131,8 +130,7 @@ def fe_band(ctx, freq_hz: np.ndarray) -> tuple[dict, dict, dict, dict]:
         first_rom = rom if i == 0 else first_rom
     checks = fe_checks(ctx, ear, fast, rigid, first_rom, freq_hz, out)
     if t.sliding_cases:  # the same ear with the sliding joint (docs/model.md §2.12): FE reductions
-        jm, _ = shared_model(ctx.settings | {"joint": "sliding"})  # the sliding step's model too
-        sliding = MiddleEarModel(joint=jm, drum_mesh_size_m=cfg.mesh.drum_mesh_size_m)
+        sliding = shared_ear(ctx.settings | {"joint": "sliding"}, drum)  # its joint: the sliding step's
         for name in t.sliding_cases:
             rom = es.reduced_ear(sliding, case_by_name(name).materials(base), cfg.ear, fmax_hz=t.fmax_hz)
             out[f"{name}_sliding"] = _columns(rom.frequency_response(freq_hz, damping))

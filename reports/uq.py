@@ -173,18 +173,14 @@ def transmission_evaluator(ctx):
     cfg = ctx.config
     if not cfg.uq.transmission_samples:
         return None
-    from isj.fem.batch import shared_model
+    from isj.fem.batch import shared_ear
     from isj.fem.ear.fast_ear import fast_ear
-    from isj.fem.ear.middle_ear import MiddleEarModel
 
     from isj.studies.uq import TRANSMISSION_FREQ_HZ, TransmissionEvaluator
 
     # the transmission step's fast ear when its band holds the evaluator's grid, else one to 20 kHz
     fmax_hz = cfg.transmission.fmax_hz if cfg.transmission.fmax_hz >= TRANSMISSION_FREQ_HZ[-1] else 20e3
-    joint, _ = shared_model(ctx.settings)
-    fast = fast_ear(
-        MiddleEarModel(joint=joint, drum_mesh_size_m=cfg.mesh.drum_mesh_size_m), cfg.ear, fmax_hz=fmax_hz
-    )
+    fast = fast_ear(shared_ear(ctx.settings, cfg.mesh.drum_mesh_size_m), cfg.ear, fmax_hz=fmax_hz)
     return TransmissionEvaluator(fast, damping=cfg.sweep.damping_model())
 
 

@@ -582,15 +582,15 @@ def test_report_uq_step_reads_no_design_key_but_the_pressure(tmp_path, monkeypat
     every other [design] key changed at once leaves its result as it was, the pressure does not."""
     import isj.fem.batch
     import isj.fem.ear.fast_ear
-    import isj.fem.ear.middle_ear
     from isj.lumped.artifact import default_calibration
     from isj.reports.config import load_config
     from isj.reports.steps import Context
     from isj.reports.uq import uq_step
 
     # the fast ear of the report's ear, without FE: the step's own code is what is checked
-    monkeypatch.setattr(isj.fem.batch, "shared_model", lambda settings: (None, None))
-    monkeypatch.setattr(isj.fem.ear.middle_ear, "MiddleEarModel", lambda **kw: None)
+    monkeypatch.setattr(
+        isj.fem.batch, "shared_ear", lambda settings, drum_mesh_size_m=None, rigid=False: None
+    )
     monkeypatch.setattr(isj.fem.ear.fast_ear, "fast_ear", lambda *a, **kw: _FakeFastEar())
     case = tmp_path / "case.toml"
     counts = "samples = 1000\nsobol_samples = 64\nbootstrap = 10\n"

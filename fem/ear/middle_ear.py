@@ -365,6 +365,12 @@ class MiddleEarModel:
 
     # ------------------------------------------------------------------ solve
 
+    def free_solver(self) -> None:
+        """Release the factorization :meth:`static` keeps (the next solve analyses again)."""
+        solver, self._solver = self._solver, None
+        if solver is not None:
+            solver.free()
+
     def solve_reduced(self, K, f_reduced) -> np.ndarray:
         """Full dof vector(s) u = T q with K q = f_reduced, reusing the solver's analysis."""
         if self._solver is None:
