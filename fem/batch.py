@@ -159,11 +159,14 @@ def transient_models(max_new: int = 1) -> Iterator[None]:
 
     For work over many geometries that are not needed again (each model holds its matrices
     and factorization: the report's geometry trends held 2.5 GB more without it,
-    docs/performance.md §8.6). Results are the same: only what is kept in memory changes.
+    docs/performance.md §8.6). Results are the same: only what is kept in memory changes. The
+    shared ears (:func:`shared_ear`) are dropped on entering: such work does not need them, and
+    each holds hundreds of MB (a later caller builds them again).
     """
     if isinstance(max_new, bool) or not isinstance(max_new, int) or max_new < 1:
         raise InvalidParameter(f"max_new = {max_new!r}: must be an integer >= 1")
     with _LOCK:
+        _EARS.clear()
         before = dict(_MODELS)
         _TRANSIENT.append({"max_new": max_new, "new": []})
     try:

@@ -56,3 +56,30 @@ def test_outside_a_block_the_memo_keeps_its_four_newest(stand_in):
 def test_transient_models_refuses_a_bad_count(bad):
     with pytest.raises(InvalidParameter, match="max_new"), batch.transient_models(bad):
         pass
+
+
+def test_shared_ears_are_built_once_and_dropped_by_a_transient_block(stand_in, monkeypatch):
+    import isj.fem.ear.middle_ear as middle_ear
+
+    class _Ear:
+        built = 0
+
+        def __init__(self, joint=None, drum_mesh_size_m=None):
+            type(self).built += 1
+            self.joint, self.drum_mesh_size_m = joint, drum_mesh_size_m
+
+        def rigid_connection(self):
+            return _Ear(None, self.drum_mesh_size_m)
+
+    monkeypatch.setattr(middle_ear, "MiddleEarModel", _Ear)
+    monkeypatch.setattr(batch, "_EARS", {})
+    settings = {"order": 2, "resolution": 1.0}
+    ear = batch.shared_ear(settings, 1e-4)
+    assert batch.shared_ear(settings, 1e-4) is ear and ear.joint is batch.shared_model(settings)[0]
+    rigid = batch.shared_ear(settings, 1e-4, rigid=True)
+    assert rigid.joint is None and batch.shared_ear(settings, 1e-4, rigid=True) is rigid
+    assert batch.shared_ear(settings, 2e-4) is not ear  # another drum, another ear
+    assert _Ear.built == 3
+    with batch.transient_models():
+        assert not batch._EARS
+    assert batch.shared_ear(settings, 1e-4) is not ear  # built again after the block
