@@ -150,6 +150,10 @@ def _model(
 #: The open :func:`transient_models` blocks, innermost last.
 _TRANSIENT: list[dict] = []
 
+#: What :func:`transient_models` drops on entering, besides the models: the clear methods of
+#: other memos that hold models (:mod:`fem.ear.shared` adds its ears when it is imported).
+TRANSIENT_CLEARS: list = []
+
 
 @contextmanager
 def transient_models(max_new: int = 1) -> Iterator[None]:
@@ -160,13 +164,15 @@ def transient_models(max_new: int = 1) -> Iterator[None]:
     For work over many geometries that are not needed again (each model holds its matrices
     and factorization: the report's geometry trends held 2.5 GB more without it,
     docs/performance.md §8.6). Results are the same: only what is kept in memory changes. The
-    shared ears (:func:`shared_ear`) are dropped on entering: such work does not need them, and
-    each holds hundreds of MB (a later caller builds them again).
+    memos of :data:`TRANSIENT_CLEARS` (the shared ears, :func:`fem.ear.shared.shared_ear`) are
+    emptied on entering: such work does not need them, and each ear holds hundreds of MB (a
+    later caller builds them again).
     """
     if isinstance(max_new, bool) or not isinstance(max_new, int) or max_new < 1:
         raise InvalidParameter(f"max_new = {max_new!r}: must be an integer >= 1")
     with _LOCK:
-        _EARS.clear()
+        for clear in TRANSIENT_CLEARS:
+            clear()
         before = dict(_MODELS)
         _TRANSIENT.append({"max_new": max_new, "new": []})
     try:
@@ -189,39 +195,6 @@ def shared_model(settings: Mapping) -> tuple[PedicleJointModel, str]:
     with _LOCK:
         joint = _joint(settings.get("joint", "bonded"))
         return _model(_geometry(settings.get("geometry")), int(order), float(resolution), joint)
-
-
-#: Whole ears built in this process around a memoised joint model, by (joint, drum element size,
-#: rigid): each holds its constraint map and pattern (hundreds of MB on the default drum).
-_EARS: dict[tuple, tuple] = {}
-_MAX_EARS = 3
-
-
-def shared_ear(settings: Mapping, drum_mesh_size_m: float | None = None, rigid: bool = False):
-    """The whole ear (:class:`fem.ear.middle_ear.MiddleEarModel`) this process memoises around
-    :func:`shared_model`'s joint for ``settings``, or with ``rigid`` that ear's rigid connection.
-
-    For the report's steps, which build the same ear (2 s on the default drum) several times.
-    The ear holds no factorization between callers: a caller that solves with it frees its
-    solver (:meth:`~fem.ear.middle_ear.MiddleEarModel.free_solver`) when it is done.
-    """
-    from isj.ear import DEFAULT_DRUM_MESH_SIZE_M
-
-    from .ear.middle_ear import MiddleEarModel
-
-    drum = float(DEFAULT_DRUM_MESH_SIZE_M if drum_mesh_size_m is None else drum_mesh_size_m)
-    with _LOCK:
-        joint, _ = shared_model(settings)
-        key = (id(joint), drum, bool(rigid))  # the entry holds the joint: its id stays its own
-        if key not in _EARS:
-            if rigid:
-                ear = shared_ear(settings, drum).rigid_connection()
-            else:
-                ear = MiddleEarModel(joint=joint, drum_mesh_size_m=drum)
-            if len(_EARS) >= _MAX_EARS:
-                _EARS.pop(next(iter(_EARS)))  # oldest first
-            _EARS[key] = (joint, ear)
-        return _EARS[key][1]
 
 
 def evaluate_design(design: Mapping, settings: Mapping) -> dict:

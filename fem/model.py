@@ -303,7 +303,9 @@ class PedicleJointModel(ElasticModel):
         """
         materials = materials or Materials()
         pressure_pa = check_pressure(pressure_pa)
-        key = (materials, pressure_pa, self.layer_shear_pa)  # the layer's modulus may be set anew
+        # only the layer joint reads its shear modulus, which may be set anew on the model
+        layer_shear_pa = self.layer_shear_pa if self.joint == "layer" else None
+        key = (materials, pressure_pa, layer_shear_pa)
         memo = self.__dict__.setdefault("_static_memo", OrderedDict())
         if key in memo:
             memo.move_to_end(key)

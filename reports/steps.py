@@ -315,7 +315,7 @@ def sweep_step(ctx: Context) -> tuple[dict, dict]:
 
 def ear_step(ctx: Context) -> tuple[dict, dict]:
     """The whole cat middle ear (docs/ear.md §5) with the joint model inside: static response per Pa."""
-    from isj.fem.batch import shared_ear
+    from isj.fem.ear.shared import shared_ear
 
     from isj.ear import EXPERIMENT_STAPES_M_PER_PA, EXPERIMENT_UMBO_M_PER_PA, SPL_100DB_PEAK_PA
 

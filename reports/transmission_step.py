@@ -97,9 +97,9 @@ def fe_band(ctx, freq_hz: np.ndarray) -> tuple[dict, dict, dict, dict]:
     case is also reduced with FE: the fast ear is checked against it and against the rigid
     reduction, and the reduction against ``fe_checks`` direct harmonic solves.
     """
-    from isj.fem.batch import shared_ear
     from isj.fem.ear import reduced_ear as es
     from isj.fem.ear.fast_ear import fast_ear
+    from isj.fem.ear.shared import shared_ear
 
     cfg, t = ctx.config, ctx.config.transmission
     damping = cfg.sweep.damping_model()

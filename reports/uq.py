@@ -173,8 +173,8 @@ def transmission_evaluator(ctx):
     cfg = ctx.config
     if not cfg.uq.transmission_samples:
         return None
-    from isj.fem.batch import shared_ear
     from isj.fem.ear.fast_ear import fast_ear
+    from isj.fem.ear.shared import shared_ear
 
     from isj.studies.uq import TRANSMISSION_FREQ_HZ, TransmissionEvaluator
 

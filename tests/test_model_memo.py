@@ -59,7 +59,7 @@ def test_transient_models_refuses_a_bad_count(bad):
 
 
 def test_shared_ears_are_built_once_and_dropped_by_a_transient_block(stand_in, monkeypatch):
-    import isj.fem.ear.middle_ear as middle_ear
+    from isj.fem.ear import shared
 
     class _Ear:
         built = 0
@@ -71,15 +71,18 @@ def test_shared_ears_are_built_once_and_dropped_by_a_transient_block(stand_in, m
         def rigid_connection(self):
             return _Ear(None, self.drum_mesh_size_m)
 
-    monkeypatch.setattr(middle_ear, "MiddleEarModel", _Ear)
-    monkeypatch.setattr(batch, "_EARS", {})
+    monkeypatch.setattr(shared, "MiddleEarModel", _Ear)
+    shared._EARS.clear()  # the dict itself: transient_models empties this one
     settings = {"order": 2, "resolution": 1.0}
-    ear = batch.shared_ear(settings, 1e-4)
-    assert batch.shared_ear(settings, 1e-4) is ear and ear.joint is batch.shared_model(settings)[0]
-    rigid = batch.shared_ear(settings, 1e-4, rigid=True)
-    assert rigid.joint is None and batch.shared_ear(settings, 1e-4, rigid=True) is rigid
-    assert batch.shared_ear(settings, 2e-4) is not ear  # another drum, another ear
-    assert _Ear.built == 3
-    with batch.transient_models():
-        assert not batch._EARS
-    assert batch.shared_ear(settings, 1e-4) is not ear  # built again after the block
+    try:
+        ear = shared.shared_ear(settings, 1e-4)
+        assert shared.shared_ear(settings, 1e-4) is ear and ear.joint is batch.shared_model(settings)[0]
+        rigid = shared.shared_ear(settings, 1e-4, rigid=True)
+        assert rigid.joint is None and shared.shared_ear(settings, 1e-4, rigid=True) is rigid
+        assert shared.shared_ear(settings, 2e-4) is not ear  # another drum, another ear
+        assert _Ear.built == 3
+        with batch.transient_models():
+            assert not shared._EARS
+        assert shared.shared_ear(settings, 1e-4) is not ear  # built again after the block
+    finally:
+        shared._EARS.clear()  # no stand-in ears left for later tests

@@ -589,7 +589,7 @@ def test_report_uq_step_reads_no_design_key_but_the_pressure(tmp_path, monkeypat
 
     # the fast ear of the report's ear, without FE: the step's own code is what is checked
     monkeypatch.setattr(
-        isj.fem.batch, "shared_ear", lambda settings, drum_mesh_size_m=None, rigid=False: None
+        isj.fem.ear.shared, "shared_ear", lambda settings, drum_mesh_size_m=None, rigid=False: None
     )
     monkeypatch.setattr(isj.fem.ear.fast_ear, "fast_ear", lambda *a, **kw: _FakeFastEar())
     case = tmp_path / "case.toml"
