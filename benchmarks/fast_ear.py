@@ -1,9 +1,11 @@
 """The fast ear (fem/ear/fast_ear.py) against the FE ear: accuracy of H_V and ΔH_V, and speed.
 
 Run:  nice -n 10 .venv/bin/python benchmarks/fast_ear.py [--resolution 1] [--n-random 20]
-      [--n-freq 80] [--seed 3] [--json benchmarks/results/fast_ear.json]
+      [--n-freq 80] [--seed 3] [--joint {bonded,sliding}] [--json benchmarks/results/fast_ear.json]
 
-For the ear of the given joint mesh (P2; resolution 1 is the default mesh) and the default drum:
+For the ear of the given joint mesh (P2; resolution 1 is the default mesh) and joint (the sliding
+joint's results go to ``results/fast_ear_sliding.json`` unless ``--json`` says otherwise) and the
+default drum:
 
 - builds the fast ear (or loads it from ``$ISJ_FE_CACHE_DIR/fast_ear``) and prints its sizes;
 - for the rigid connection, the seven thesis cases and ``--n-random`` designs of the calibrated
@@ -93,15 +95,18 @@ def main() -> int:
     ap.add_argument("--n-random", type=int, default=20)
     ap.add_argument("--n-freq", type=int, default=80)
     ap.add_argument("--seed", type=int, default=3)
-    ap.add_argument("--json", default=str(OUT))
+    ap.add_argument("--joint", choices=("bonded", "sliding"), default="bonded")
+    ap.add_argument("--json", help=f"where the figures go (default {OUT.name}, fast_ear_sliding.json)")
     ap.add_argument("--no-json", action="store_true")
     ap.add_argument("--fast-ear", help="read this stored fast ear (FastEar.save) instead of the cache's")
     args = ap.parse_args()
     if args.n_random < 0 or args.n_freq < 2:
         ap.error("--n-random must be >= 0 and --n-freq >= 2")
+    if args.json is None:
+        args.json = str(OUT if args.joint == "bonded" else OUT.with_name("fast_ear_sliding.json"))
     freqs = np.geomspace(100.0, 20e3, args.n_freq)
     t0 = time.perf_counter()
-    ear = MiddleEarModel(joint=PedicleJointModel(order=2, resolution=args.resolution))
+    ear = MiddleEarModel(joint=PedicleJointModel(order=2, resolution=args.resolution, joint=args.joint))
     rigid_model = MiddleEarModel(geometry=ear.geometry)
     t_model = time.perf_counter() - t0
     t0 = time.perf_counter()
@@ -143,6 +148,7 @@ def main() -> int:
     record = {
         "complete": False,
         "resolution": args.resolution,
+        "joint": args.joint,
         "freq_hz": freqs.tolist(),
         "fast_ear": {
             "n_dofs": fe.n_dofs,

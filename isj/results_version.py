@@ -90,7 +90,7 @@ STEP_VERSIONS = {
     "calibration": 1,
     "sweep": 1,
     "ear": 1,
-    "transmission": 2,
+    "transmission": 3,
     "load_path": 1,
     "sliding": 1,
     "guard": 1,

@@ -129,13 +129,20 @@ def fe_band(ctx, freq_hz: np.ndarray) -> tuple[dict, dict, dict, dict]:
         info[name] = {"model": "fe", "n_dofs": rom.n_dofs}
         first_rom = rom if i == 0 else first_rom
     checks = fe_checks(ctx, ear, fast, rigid, first_rom, freq_hz, out)
-    if t.sliding_cases:  # the same ear with the sliding joint (docs/model.md §2.12): FE reductions
+    if t.sliding_cases:  # the same ear with the sliding joint (docs/model.md §2.12)
         sliding = shared_ear(ctx.settings | {"joint": "sliding"}, drum)  # its joint: the sliding step's
+        # the sliding joint's own fast ear (shipped for the default report, docs/fast_ear.md §14.7)
+        fast_sliding = fast_ear(sliding, cfg.ear, fmax_hz=t.fmax_hz) if t.cases_from == "fast" else None
         for name in t.sliding_cases:
-            rom = es.reduced_ear(sliding, case_by_name(name).materials(base), cfg.ear, fmax_hz=t.fmax_hz)
-            out[f"{name}_sliding"] = _columns(rom.frequency_response(freq_hz, damping))
-            cav[f"{name}_sliding"] = cavity_columns(rom, freq_hz, damping, states)
-            info[f"{name}_sliding"] = {"model": "fe", "n_dofs": rom.n_dofs}
+            mats, col = case_by_name(name).materials(base), f"{name}_sliding"
+            if fast_sliding is not None and fast_sliding.covers(mats):
+                out[col], cav[col] = fast_columns(fast_sliding, mats, freq_hz, damping, states)
+                info[col] = {"model": "fast", "n_dofs": fast_sliding.n_dofs}
+                continue
+            rom = es.reduced_ear(sliding, mats, cfg.ear, fmax_hz=t.fmax_hz)
+            out[col] = _columns(rom.frequency_response(freq_hz, damping))
+            cav[col] = cavity_columns(rom, freq_hz, damping, states)
+            info[col] = {"model": "fe", "n_dofs": rom.n_dofs}
     return out, info, checks, cav
 
 
