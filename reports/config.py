@@ -218,7 +218,8 @@ class TransmissionConfig:
     harmonic solves, the highest at ``fmax_hz``, check that reduction. ``cases_from``: "fast" (as above)
     or "fe" (every case its own FE reduction, no fast ear: for one or two cases, where building the fast
     ear costs more than it saves). ``sliding_cases`` are computed again with the sliding joint
-    (docs/model.md §2.12), as ``<case>_sliding``, from the sliding joint's own fast ear in the same way. The damping is the ``[sweep]`` section's. ``cavities``:
+    (docs/model.md §2.12), as ``<case>_sliding``, from the sliding joint's own fast ear in the same
+    way. The damping is the ``[sweep]`` section's. ``cavities``:
     the middle-ear cavity states computed beside the open ear and compared with the published cat circuit,
     "open", "intact" or "both" (docs/circuit.md §13.3: the ear's own default state is open,
     :data:`isj.cavities.DEFAULT_CAVITIES`, and every other number of the step is the open ear's; the

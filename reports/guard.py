@@ -71,6 +71,7 @@ def guard_page(fig, res: dict, arrays: dict):
             cmap="viridis",
             vmin=0,
             vmax=max(float(err.max()), 1e-9),
+            rasterized=True,  # thousands of markers per panel: as vectors they took 3 s to write
         )
         ax.set_xscale("log")
         ax.set_yscale("log")

@@ -74,6 +74,11 @@ def build_pages(config, results: dict, arrays: dict, provenance: dict):
         yield title, fig
 
 
+#: Resolution (dots per inch) of the artists drawn as images (the guard page's dense scatter); the
+#: rest of every page stays vector.
+RASTER_DPI = 200
+
+
 def write_report(path, config, results: dict, arrays: dict, provenance: dict) -> list[str]:
     """Write the PDF atomically; returns the page titles."""
     from matplotlib.backends.backend_pdf import PdfPages
@@ -86,7 +91,7 @@ def write_report(path, config, results: dict, arrays: dict, provenance: dict) ->
         # no creation date: the same inputs give the same bytes
         with PdfPages(tmp, metadata={"CreationDate": None, "Title": "isj report"}) as pdf:
             for title, fig in build_pages(config, results, arrays, provenance):
-                pdf.savefig(fig)
+                pdf.savefig(fig, dpi=RASTER_DPI)
                 titles.append(title)
 
     atomic_write(path, write)

@@ -24,7 +24,6 @@ from isj.fem.ear.fast_ear import SHIPPED_DIR, build_fast_ear, cache_key_of, load
 from isj.fem.ear.middle_ear import MiddleEarModel
 from isj.fem.model import PedicleJointModel
 
-
 #: The joints whose default fast ear ships.
 JOINTS = ("bonded", "sliding")
 
