@@ -166,13 +166,17 @@ def transient_models(max_new: int = 1) -> Iterator[None]:
     docs/performance.md §8.6). Results are the same: only what is kept in memory changes. The
     memos of :data:`TRANSIENT_CLEARS` (the shared ears, :func:`fem.ear.shared.shared_ear`) are
     emptied on entering: such work does not need them, and each ear holds hundreds of MB (a
-    later caller builds them again).
+    later caller builds them again). The models kept from before the block release their
+    factorizations (each a few hundred MB on the default mesh; a later solve factors again, and
+    their kept static results stay).
     """
     if isinstance(max_new, bool) or not isinstance(max_new, int) or max_new < 1:
         raise InvalidParameter(f"max_new = {max_new!r}: must be an integer >= 1")
     with _LOCK:
         for clear in TRANSIENT_CLEARS:
             clear()
+        for model, _ in _MODELS.values():
+            model.free_solver()
         before = dict(_MODELS)
         _TRANSIENT.append({"max_new": max_new, "new": []})
     try:

@@ -202,6 +202,15 @@ class ElasticModel:
         coef = {r: (materials.density(r), 0.0) for r in self.regions}
         return combine(self.pattern, self.regions, coef, part="mass")
 
+    def free_solver(self) -> None:
+        """Release the factorization the model keeps (the next solve analyses again; the kept
+        static results stay)."""
+        solver, self._solver = self._solver, None
+        self._upper_positions = None
+        free = getattr(solver, "free", None)  # CHOLMOD's is released with the object
+        if free is not None:
+            free()
+
     def solve_load(self, materials: Materials, load: np.ndarray) -> np.ndarray:
         """Full dof vector of the static displacement (m) under nodal forces ``load`` (N)."""
         data = self.stiffness_data(materials)

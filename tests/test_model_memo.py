@@ -20,6 +20,10 @@ class _StandIn:
     def __init__(self, geometry, order, resolution, joint):
         type(self).built += 1
         self.geometry, self.mesh = geometry, _Mesh()
+        self.freed = 0
+
+    def free_solver(self):
+        self.freed += 1
 
 
 @pytest.fixture
@@ -37,6 +41,7 @@ def _geometry(k: int) -> Geometry:
 def test_a_transient_block_keeps_one_new_model_at_a_time_and_restores_the_memo(stand_in):
     report_model = batch._model(Geometry(), 2, 1.0)
     with batch.transient_models():
+        assert report_model[0].freed == 1  # its factorization released on entering
         for k in range(1, 4):
             batch._model(_geometry(k), 2, 1.0)
             new = [m for m, _ in batch._MODELS.values() if m.geometry != Geometry()]
@@ -86,3 +91,25 @@ def test_shared_ears_are_built_once_and_dropped_by_a_transient_block(stand_in, m
         assert shared.shared_ear(settings, 1e-4) is not ear  # built again after the block
     finally:
         shared._EARS.clear()  # no stand-in ears left for later tests
+
+
+@pytest.mark.slow
+def test_a_freed_model_solves_again_to_the_same_bits():
+    """free_solver drops the factorization, not the model: the next new design is analysed and
+    factored again and gives what a model that never freed gives."""
+    import numpy as np
+    from isj.fem.model import PedicleJointModel
+
+    from isj.design import Materials
+
+    kept, freed = (PedicleJointModel(order=1, resolution=0.35) for _ in range(2))
+    for model in (kept, freed):
+        model.static(Materials())
+    freed.free_solver()
+    assert freed._solver is None
+    assert freed.static(Materials()) is freed.static(Materials())  # the kept result stays
+    soft = Materials(gap_e_pa=3e6)
+    a, b = kept.static(soft), freed.static(soft)
+    assert freed._solver is not None
+    assert (a.alpha_rad, a.beta_rad) == (b.alpha_rad, b.beta_rad)
+    assert np.array_equal(a.displacement_m, b.displacement_m)
