@@ -40,7 +40,7 @@ from isj.responses import FrequencyResponse
 from isj.validate import check_frequencies
 
 from .assembly import combine, lame_unit
-from .solvers import lanczos_start, make_complex_symmetric_solver, make_indefinite_solver, make_solver
+from .solvers import lanczos_start, make_complex_symmetric_solver, make_indefinite_solver
 
 #: Lanczos iterations before :func:`harmonic` solves a frequency directly (each costs one
 #: triangular solve, ~0.15 s on the default mesh; the complex factorization ~3.5 s).
@@ -63,8 +63,7 @@ def modes(model, materials: Materials | None = None, n: int = 6):
         raise InvalidParameter(f"n = {n!r}: must be between 1 and {model.n_dofs - 1}")
     K = model.stiffness(materials)
     M = model.reduction.matrix(model.mass_data(materials))
-    solver = make_solver(K, model._solver_name)
-    solver.factor(K)
+    solver = model.factored_solver(materials)  # K's factorization, shared with static solves
     opinv = spla.LinearOperator(K.shape, matvec=lambda x: np.ravel(solver.solve(x)), dtype=float)
     # a fixed start vector: the same modes, bit for bit, on every run
     w2, vec = spla.eigsh(
@@ -112,9 +111,7 @@ def harmonic(
     u = np.zeros((freqs.size, K.shape[0]), dtype=complex)
     todo = np.ones(freqs.size, dtype=bool)
     if method == "auto":
-        if model._solver is None:  # as a static solve would: the analysis is kept for later ones
-            model._solver = make_solver(K, model._solver_name)
-        model._solver.factor(K)
+        model.factored_solver(materials)  # as a static solve would: kept for later ones
         if uniform is not None:  # Z = αK + βM with scalars: one Krylov space for every frequency
             a, b, eta = uniform
             alpha, beta = 1 + 1j * (eta + w * b), 1j * w * a - w**2

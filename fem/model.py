@@ -211,22 +211,40 @@ class ElasticModel:
         if free is not None:
             free()
 
-    def solve_load(self, materials: Materials, load: np.ndarray) -> np.ndarray:
-        """Full dof vector of the static displacement (m) under nodal forces ``load`` (N)."""
-        data = self.stiffness_data(materials)
+    def stiffness_key(self, materials: Materials):
+        """What K depends on besides the model: ``materials`` (a subclass may add its own settings)."""
+        return materials
+
+    def factored_solver(self, materials: Materials):
+        """The model's solver holding the factorization of the reduced K(``materials``).
+
+        Factored here unless the solver already holds that factorization (a modal or harmonic
+        solve after a static one of the same design, or the reverse): the same factorization,
+        so the same bits. A factorization made by any other caller clears the solver's record
+        (``factored_for``), so it is never taken for this one.
+        """
+        key = self.stiffness_key(materials)
         t0 = time.perf_counter()
         if self._solver is None:
-            K = self.reduction.matrix(data)
+            K = self.reduction.matrix(self.stiffness_data(materials))
             self._solver = make_solver(K, self._solver_name, ordering_cache=self.ordering_cache)
             t1 = time.perf_counter()
             self._solver.factor(K)
-        else:
+        elif getattr(self._solver, "factored_for", None) != key:
             t1 = time.perf_counter()
-            self._factor(data)
-        t2 = time.perf_counter()
-        u = self._solver.solve(self.reduction.restrict(load))
-        t3 = time.perf_counter()
-        self.timings_s.update(analyse=t1 - t0, factor=t2 - t1, solve=t3 - t2)
+            self._factor(self.stiffness_data(materials))
+        else:
+            t1 = t0
+        self._solver.factored_for = key
+        self.timings_s.update(analyse=t1 - t0, factor=time.perf_counter() - t1)
+        return self._solver
+
+    def solve_load(self, materials: Materials, load: np.ndarray) -> np.ndarray:
+        """Full dof vector of the static displacement (m) under nodal forces ``load`` (N)."""
+        solver = self.factored_solver(materials)
+        t0 = time.perf_counter()
+        u = solver.solve(self.reduction.restrict(load))
+        self.timings_s["solve"] = time.perf_counter() - t0
         return self.reduction.expand(np.ravel(u))
 
 
@@ -291,6 +309,10 @@ class PedicleJointModel(ElasticModel):
         if self.joint == "layer":
             data = data + layer_correction(self, materials)
         return data
+
+    def stiffness_key(self, materials: Materials):
+        """``materials``, and with ``joint="layer"`` the layer's shear modulus, which may be set anew."""
+        return (materials, self.layer_shear_pa) if self.joint == "layer" else materials
 
     def displacement(self, materials: Materials, pressure_pa: float) -> np.ndarray:
         """Full dof vector of the static displacement (m)."""

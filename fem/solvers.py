@@ -302,6 +302,7 @@ class PardisoSolver:
         For callers that gather those entries straight from their own storage
         (``ElasticModel``), skipping the full matrix.
         """
+        self.factored_for = None  # a caller that knows what it factored names it afterwards
         self._data = np.ascontiguousarray(data, dtype=self.dtype)  # kept: iterative refinement reads A
         self._call(22, np.zeros((self._upper.shape[0], 1), dtype=self.dtype))
 
@@ -356,6 +357,7 @@ class CholmodSolver:
         self._f = analyze(A.tocsc())
 
     def factor(self, A: sp.csr_matrix) -> None:
+        self.factored_for = None
         self._f.cholesky_inplace(A.tocsc())
 
     def solve(self, b: np.ndarray) -> np.ndarray:
@@ -372,6 +374,7 @@ class SuperLUSolver:
         self._lu = None
 
     def factor(self, A: sp.csr_matrix) -> None:
+        self.factored_for = None
         self._lu = spla.splu(A.astype(self.dtype, copy=False).tocsc(), permc_spec="MMD_AT_PLUS_A")
 
     def solve(self, b: np.ndarray) -> np.ndarray:
@@ -388,6 +391,7 @@ class SuperLUComplexSolver(SuperLUSolver):
     dtype = np.complex128
 
     def factor(self, A: sp.csr_matrix) -> None:
+        self.factored_for = None
         self._lu = spla.splu(A.astype(self.dtype, copy=False).tocsc())
 
 
