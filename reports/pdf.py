@@ -78,9 +78,14 @@ def build_pages(config, results: dict, arrays: dict, provenance: dict):
 #: rest of every page stays vector.
 RASTER_DPI = 200
 
+#: zlib level of the PDF's streams: level 1 wrote the fifteen pages in 8.9 s against 11.4–11.8 s
+#: at matplotlib's default 6, for a file 2.5 % larger (1.75 MB against 1.71 MB).
+PDF_COMPRESSION = 1
+
 
 def write_report(path, config, results: dict, arrays: dict, provenance: dict) -> list[str]:
     """Write the PDF atomically; returns the page titles."""
+    import matplotlib
     from matplotlib.backends.backend_pdf import PdfPages
 
     from isj.atomic import atomic_write
@@ -89,7 +94,10 @@ def write_report(path, config, results: dict, arrays: dict, provenance: dict) ->
 
     def write(tmp):
         # no creation date: the same inputs give the same bytes
-        with PdfPages(tmp, metadata={"CreationDate": None, "Title": "isj report"}) as pdf:
+        with (
+            matplotlib.rc_context({"pdf.compression": PDF_COMPRESSION}),
+            PdfPages(tmp, metadata={"CreationDate": None, "Title": "isj report"}) as pdf,
+        ):
             for title, fig in build_pages(config, results, arrays, provenance):
                 pdf.savefig(fig, dpi=RASTER_DPI)
                 titles.append(title)
