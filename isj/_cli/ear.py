@@ -6,6 +6,7 @@ import argparse
 import time
 
 from isj.design import Materials
+from isj.errors import InvalidParameter, UsageError
 
 from . import _common as c
 from .sweep import add_band_options, add_damping_options, check_sweep_finite, damping_from_args, sweep_setup
@@ -81,6 +82,14 @@ def register(sub) -> None:
         "(fem/ear/reduced_ear.py), instead of the lumped ear; checked against direct FE harmonic solves "
         "at max(--fe-checks, 3) frequencies, both band ends included, within 1 %% in magnitude and "
         "1 deg in phase (exit 1 otherwise)",
+    )
+    p.add_argument(
+        "--fast",
+        action="store_true",
+        help="the fast ear (fem/ear/fast_ear.py, docs/fast_ear.md): the FE ear reduced once for every "
+        "design of the calibrated domain (shipped for the default mesh), H_V and dH_V against the rigid "
+        "connection in milliseconds; up to 20000 Hz, no FE checks (its agreement with the FE ear is "
+        "measured in docs/fast_ear.md 14.3)",
     )
     p.add_argument(
         "--out",
@@ -177,9 +186,13 @@ def sweep(args) -> int:
     from .lumped import check_nu
 
     if args.fmax_hz is None:
-        args.fmax_hz = 20e3 if args.fe else (5000.0 if args.drum_modes else 1500.0)
+        args.fmax_hz = 20e3 if args.fe or args.fast else (5000.0 if args.drum_modes else 1500.0)
+    if args.fe and args.fast:
+        raise UsageError("--fe and --fast: choose one ear (the reduced FE ear or the fast ear)")
     if args.fe:
         return _fe_sweep(args)
+    if args.fast:
+        return _fast_sweep(args)
     out, cal, m, fe_freq = sweep_setup(args, EAR_SWEEP_FILES, "ear")
     if not args.rigid_joint:  # the lumped joint inside the lumped ear holds at its calibration's ratio
         check_nu(cal, args.nu)
@@ -370,8 +383,93 @@ def _fe_sweep(args) -> int:
     return 0
 
 
-def _write_fe(args, out, freqs, H, names, units, chk, delta) -> None:
-    """ear_sweep.csv, ear_sweep.npz and ear_bode.png of ``--fe`` (ear_sweep.json comes last).
+#: The band of ``--fast`` ends where the fast ear's shells were reduced for (Hz).
+FAST_FMAX_HZ = 20e3
+
+
+def _fast_sweep(args) -> int:
+    """``--fast``: one design through the fast ear at every frequency, with ΔH_V against the rigid
+    connection of the same ear; the fast ear is read from the cache or the shipped file, else built."""
+    import numpy as np
+
+    from isj.fem.ear.fast_ear import fast_ear, fast_ear_sweep
+
+    from ..atomic import replace_dir
+    from ..design_space import DesignSpace
+    from ..provenance import write_run_record
+
+    if args.rigid_joint:
+        raise UsageError(
+            "--rigid-joint: the fast ear has the joint inside (its dH_V is against the rigid "
+            "connection); use --fe --rigid-joint for the rigid ear alone"
+        )
+    if args.fmax_hz > FAST_FMAX_HZ:
+        raise UsageError(f"--fmax-hz = {args.fmax_hz:g}: with --fast must be at most {FAST_FMAX_HZ:g} Hz")
+    out, _, m, _ = sweep_setup(args, EAR_SWEEP_FILES, "ear", lumped=False)
+    try:
+        DesignSpace().designs_from(m)  # the fast ear's domain, before anything is built
+    except InvalidParameter as exc:
+        raise UsageError(f"--fast: {exc}") from None
+    _check_joint(args)
+    damping = damping_from_args(args)
+    freqs = np.geomspace(args.fmin_hz, args.fmax_hz, args.n)
+    t0 = time.perf_counter()
+    model, ear_materials = _ear_model(args)
+    ear = fast_ear(model, ear_materials, fmax_hz=FAST_FMAX_HZ)
+    t1 = time.perf_counter()
+    sw = fast_ear_sweep(freqs, m, damping, ear=ear)
+    t2 = time.perf_counter()
+    resp = sw["response"]
+    names = [k for k in resp.output_names if k != "delta_h_v"]
+    H = np.column_stack([resp[k] for k in names])
+    units = [resp.unit(k) for k in names]
+    delta = {k: sw[k] for k in ("columns", "units", "summary")}
+    summary = {
+        "fast": True,
+        "n_freq": int(args.n),
+        "band_hz": [float(args.fmin_hz), float(args.fmax_hz)],
+        "method": "fast ear (fem/ear/fast_ear.py): the FE ear reduced once for the calibrated domain, "
+        "the joint condensed per design through its affine structure (docs/fast_ear.md)",
+        "outputs": names,
+        "units": units,
+        "fe_n_dofs": model.n_dofs,
+        "fast_ear_n_dofs": sw["n_dofs"],
+        "n_joint_basis": sw["n_joint_basis"],
+        "shipped": bool(ear.meta.get("shipped", False)),
+        "damping": damping.to_dict(),
+        "delta_h_v": delta["summary"] | {"against": "the rigid connection of the same ear (fast ear)"},
+        "timings_s": {"model_and_fast_ear": t1 - t0, "sweep": t2 - t1, "total": t2 - t0},
+    }
+    c.check_finite(summary | {"response": H}, c.design_inputs(args))
+    with replace_dir(out) as staging:  # the four files appear together or not at all
+        _write_fe(args, staging, freqs, H, names, units, None, delta, model_label="fast ear")
+        write_run_record(staging / "ear_sweep.json", args, summary)
+    if args.json:
+        c.print_json(summary)
+    else:
+        ds = delta["summary"]
+        print(
+            f"fast ear {args.fmin_hz:g}-{args.fmax_hz:g} Hz ({args.n} points): {sw['n_dofs']} coordinates "
+            f"({sw['n_joint_basis']} of the joint) for {model.n_dofs} FE dofs; ready in "
+            f"{summary['timings_s']['model_and_fast_ear']:.1f} s, swept in {1e3 * (t2 - t1):.1f} ms"
+        )
+        at = ", ".join(
+            f"{f} Hz {v['db']:+.3f} dB {v['deg']:+.2f} deg" for f, v in ds["delta_h_v_at_hz"].items()
+        )
+        print(f"  dH_V against the rigid connection: {at}")
+        if "max_abs_delta_h_v_db_to_10khz" in ds:
+            print(
+                f"  largest |dH_V| to 10 kHz: {ds['max_abs_delta_h_v_db_to_10khz']:.3f} dB at "
+                f"{ds['max_abs_delta_h_v_at_hz']:.0f} Hz"
+            )
+        print(f"wrote {out}/ear_sweep.csv, ear_sweep.npz, ear_bode.png, ear_sweep.json")
+    return 0
+
+
+def _write_fe(args, out, freqs, H, names, units, chk, delta, model_label: str = "FE ear") -> None:
+    """ear_sweep.csv, ear_sweep.npz and ear_bode.png of ``--fe`` and ``--fast`` (ear_sweep.json comes
+    last). ``chk``: the direct FE checks (:func:`isj.fem.ear.reduced_ear.check_against_direct`), None
+    for the fast ear (no checks: empty check arrays, no markers).
 
     ``delta``: :func:`isj.responses.delta_columns`, H_V and ΔH_V in dB and degrees, as
     plain columns after the complex ones."""
@@ -386,12 +484,17 @@ def _write_fe(args, out, freqs, H, names, units, chk, delta) -> None:
     delta_text = "; ".join(f"{k} {u}" for k, u in delta["units"].items())
     header = (
         f"freq_hz Hz; per Pa of ear-canal pressure: {text}; phase deg; {delta_text} "
-        f"(ΔH_V against the rigid connection of the same ear); FE ear, {joint_label}"
+        f"(ΔH_V against the rigid connection of the same ear); {model_label}, {joint_label}"
     )
     write_response_csv(out / "ear_sweep.csv", freqs, H, names, header, extra=delta["columns"])
-    keys = [k for k in ("umbo_m", "stapes_m", "alpha_rad", "beta_rad") if f"direct_{k}" in chk["checks"][0]]
-    direct = np.array([[complex(*ck[f"direct_{k}"]) for k in keys] for ck in chk["checks"]])
-    f_chk = np.array([ck["freq_hz"] for ck in chk["checks"]])
+    checks = chk["checks"] if chk is not None else []  # the fast ear has no direct checks
+    keys = [
+        k for k in ("umbo_m", "stapes_m", "alpha_rad", "beta_rad") if checks and f"direct_{k}" in checks[0]
+    ]
+    direct = np.array([[complex(*ck[f"direct_{k}"]) for k in keys] for ck in checks], complex).reshape(
+        len(checks), len(keys)
+    )
+    f_chk = np.array([ck["freq_hz"] for ck in checks], float)
     write_npz(
         out / "ear_sweep.npz",
         freq_hz=freqs,
@@ -405,14 +508,17 @@ def _write_fe(args, out, freqs, H, names, units, chk, delta) -> None:
     )
     fig = Figure(figsize=(7, 6))  # a Figure of its own: no pyplot state, no backend chosen
     ax_mag, ax_ph = fig.subplots(2, 1, sharex=True)
+    curve_label = "reduced FE" if checks else model_label
     for key, direct_key, label in (
         ("stapes_velocity_m_s", "stapes_m", "stapes H_V"),
         ("umbo_velocity_m_s", "umbo_m", "umbo"),
     ):
         h = H[:, names.index(key)]
-        (line,) = ax_mag.loglog(freqs, np.abs(h), label=f"{label}, reduced FE")
+        (line,) = ax_mag.loglog(freqs, np.abs(h), label=f"{label}, {curve_label}")
         ph = np.unwrap(np.angle(h))
         ax_ph.semilogx(freqs, np.degrees(ph), color=line.get_color())
+        if not checks:
+            continue
         v = 2j * np.pi * f_chk * direct[:, keys.index(direct_key)]
         ax_mag.plot(f_chk, np.abs(v), "o", mfc="none", color=line.get_color(), label=f"{label}, direct FE")
         ref = np.interp(f_chk, freqs, ph)  # the direct phase on the curve's branch
@@ -427,6 +533,7 @@ def _write_fe(args, out, freqs, H, names, units, chk, delta) -> None:
     ax_ph.set_ylabel("phase (deg)")
     ax_ph.set_xlabel("frequency (Hz)")
     ax_mag.legend(fontsize=8)
-    ax_mag.set_title(f"FE cat middle ear ({joint_label}) per Pa: reduced model, direct FE checks", fontsize=9)
+    title = "reduced model, direct FE checks" if checks else model_label
+    ax_mag.set_title(f"FE cat middle ear ({joint_label}) per Pa: {title}", fontsize=9)
     fig.tight_layout()
     atomic_write(out / "ear_bode.png", lambda tmp: fig.savefig(tmp, format="png"))
