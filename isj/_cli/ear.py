@@ -298,9 +298,6 @@ def _fe_sweep(args) -> int:
     from isj.fem.ear import reduced_ear as es
     from isj.responses import delta_columns
 
-    from ..atomic import replace_dir
-    from ..provenance import write_run_record
-
     out, _, m, _ = sweep_setup(args, EAR_SWEEP_FILES, "ear", lumped=False)
     _check_joint(args)
     damping = damping_from_args(args)
@@ -356,31 +353,44 @@ def _fe_sweep(args) -> int:
             "total": t5 - t0,
         },
     }
-    c.check_finite(summary | {"response": H}, c.design_inputs(args))
-    with replace_dir(out) as staging:  # the four files appear together or not at all
-        _write_fe(args, staging, freqs, H, names, [resp.unit(k) for k in names], chk, delta)
-        write_run_record(staging / "ear_sweep.json", args, summary)
+    _write_sweep(args, out, summary, freqs, H, names, chk, delta, "FE ear")
     if args.json:
         c.print_json(summary)
     else:
-        ts = summary["timings_s"]
-        print(
-            f"FE ear {args.fmin_hz:g}-{args.fmax_hz:g} Hz ({args.n} points): {model.n_dofs} dofs reduced to "
-            f"{rom.n_dofs}; reduction {ts['reduction']:.1f} s, {1e3 * ts['per_frequency']:.1f} ms per "
-            f"frequency, direct solve {chk['direct_seconds_per_frequency']:.1f} s per frequency"
-        )
-        for ck in chk["checks"]:
-            worst = max(v for k, v in ck.items() if k.endswith("_mag_rel_error"))
-            ph = max(v for k, v in ck.items() if k.endswith("_phase_error_deg"))
-            verdict = "ok" if ck["passed"] else "EXCEEDS 1 % / 1 deg"
-            print(
-                f"  check at {ck['freq_hz']:.0f} Hz against a direct FE solve: {100 * worst:.2g} %, "
-                f"{ph:.2g} deg {verdict}"
-            )
-        print(f"wrote {out}/ear_sweep.csv, ear_sweep.npz, ear_bode.png, ear_sweep.json")
+        _print_fe_sweep(args, out, summary, model, rom, chk)
     if not chk["passed"]:
         return c.fail("the reduced FE ear differs from a direct FE solve by more than 1 % or 1 deg")
     return 0
+
+
+def _write_sweep(args, out, summary, freqs, H, names, chk, delta, model_label: str) -> None:
+    """The FE or fast ear sweep's four files, together or not at all (ear_sweep.json last), once
+    every number of ``summary`` and ``H`` is finite."""
+    from ..atomic import replace_dir
+    from ..provenance import write_run_record
+
+    c.check_finite(summary | {"response": H}, c.design_inputs(args))
+    with replace_dir(out) as staging:
+        _write_fe(args, staging, freqs, H, names, summary["units"], chk, delta, model_label=model_label)
+        write_run_record(staging / "ear_sweep.json", args, summary)
+
+
+def _print_fe_sweep(args, out, summary, model, rom, chk) -> None:
+    ts = summary["timings_s"]
+    print(
+        f"FE ear {args.fmin_hz:g}-{args.fmax_hz:g} Hz ({args.n} points): {model.n_dofs} dofs reduced to "
+        f"{rom.n_dofs}; reduction {ts['reduction']:.1f} s, {1e3 * ts['per_frequency']:.1f} ms per "
+        f"frequency, direct solve {chk['direct_seconds_per_frequency']:.1f} s per frequency"
+    )
+    for ck in chk["checks"]:
+        worst = max(v for k, v in ck.items() if k.endswith("_mag_rel_error"))
+        ph = max(v for k, v in ck.items() if k.endswith("_phase_error_deg"))
+        verdict = "ok" if ck["passed"] else "EXCEEDS 1 % / 1 deg"
+        print(
+            f"  check at {ck['freq_hz']:.0f} Hz against a direct FE solve: {100 * worst:.2g} %, "
+            f"{ph:.2g} deg {verdict}"
+        )
+    print(f"wrote {out}/ear_sweep.csv, ear_sweep.npz, ear_bode.png, ear_sweep.json")
 
 
 #: The band of ``--fast`` ends where the fast ear's shells were reduced for (Hz).
@@ -394,9 +404,7 @@ def _fast_sweep(args) -> int:
 
     from isj.fem.ear.fast_ear import fast_ear, fast_ear_sweep
 
-    from ..atomic import replace_dir
     from ..design_space import DesignSpace
-    from ..provenance import write_run_record
 
     if args.rigid_joint:
         raise UsageError(
@@ -440,10 +448,7 @@ def _fast_sweep(args) -> int:
         "delta_h_v": delta["summary"] | {"against": "the rigid connection of the same ear (fast ear)"},
         "timings_s": {"model_and_fast_ear": t1 - t0, "sweep": t2 - t1, "total": t2 - t0},
     }
-    c.check_finite(summary | {"response": H}, c.design_inputs(args))
-    with replace_dir(out) as staging:  # the four files appear together or not at all
-        _write_fe(args, staging, freqs, H, names, units, None, delta, model_label="fast ear")
-        write_run_record(staging / "ear_sweep.json", args, summary)
+    _write_sweep(args, out, summary, freqs, H, names, None, delta, "fast ear")
     if args.json:
         c.print_json(summary)
     else:
