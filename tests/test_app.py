@@ -15,6 +15,7 @@ import os
 import socket
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -205,13 +206,21 @@ def serving_app(env: dict):
         stderr=subprocess.STDOUT,
         text=True,
     )
+    log: list[str] = []
     try:
         line = proc.stdout.readline()
         assert line.startswith("isj app: serving on http://127.0.0.1:"), line
+        # the rest of its output is read as it comes: a full pipe would stop the server, and a
+        # test that fails shows what the server said (captured output, below)
+        threading.Thread(target=lambda: log.extend(proc.stdout), daemon=True).start()
         yield f"http://127.0.0.1:{port}/", proc
     finally:
+        exited = proc.poll()
         proc.terminate()
         proc.wait(20)
+        if exited is not None:
+            print(f"isj app exited with {exited} before the end")
+        print("".join(log[-40:]))  # its last output, shown with a failing test's captured output
 
 
 @contextlib.contextmanager
