@@ -174,21 +174,14 @@ def _memory_gb() -> float | None:
     return pages * os.sysconf("SC_PAGE_SIZE") / 1024**3
 
 
-def _run(config: ReportConfig, out: Path, staging: Path, verbosity: int, cache_dir, cal, t_start) -> dict:
-    """Every step, the data files and the PDF, written into ``staging`` (``out`` is only read)."""
-    from . import csvdata, pdf
+def _compute_steps(ctx: Context, store: StepStore, out: Path, say) -> dict:
+    """Each step from the step cache or computed and stored, its data files written into ``out``:
+    results, arrays, keys, timings, the cached steps and the memory after each step."""
+    from . import csvdata
 
-    final, out = out, staging
-
-    def say(msg: str, level: int = 1) -> None:
-        if verbosity >= level:
-            print(msg, file=sys.stderr, flush=True)
-
-    ctx = Context(config, cal, _fe_cache_dir(), progress=verbosity >= 1)
-    store = StepStore(cache_dir or default_cache_dir())
-    results, arrays, timings, cached, keys, peak, held = {}, {}, {}, [], {}, {}, {}
+    run = {"results": {}, "arrays": {}, "timings": {}, "cached": [], "keys": {}, "peak": {}, "held": {}}
     for i, (name, fn, sections) in enumerate(STEPS, 1):
-        key = keys[name] = step_key(name, step_inputs(ctx, sections, fn))
+        key = run["keys"][name] = step_key(name, step_inputs(ctx, sections, fn))
         t0 = time.perf_counter()
         hit = store.get(name, key)
         if hit is None:
@@ -200,43 +193,63 @@ def _run(config: ReportConfig, out: Path, staging: Path, verbosity: int, cache_d
             res = json.loads(json.dumps(res, sort_keys=True))
         else:
             res, arr = hit
-            cached.append(name)
-        timings[name] = time.perf_counter() - t0
-        peak[name] = _peak_memory_gb()
-        held[name] = _memory_gb()
-        say(
-            f"[{i}/{len(STEPS)}] {name}: {'cached' if hit else 'done'} ({timings[name]:.1f} s)",
-            1 if hit else 2,
-        )
+            run["cached"].append(name)
+        seconds = run["timings"][name] = time.perf_counter() - t0
+        run["peak"][name] = _peak_memory_gb()
+        run["held"][name] = _memory_gb()
+        say(f"[{i}/{len(STEPS)}] {name}: {'cached' if hit else 'done'} ({seconds:.1f} s)", 1 if hit else 2)
         say(f"        key {key}", 2)
-        results[name], arrays[name] = res, arr
+        run["results"][name], run["arrays"][name] = res, arr
         atomic_write_json(out / "data" / f"{name}.json", res)
         for fname, text in csvdata.tables(name, res, arr).items():
             atomic_write_text(out / "data" / fname, text)
+    return run
 
+
+def _write_pdf(config: ReportConfig, run: dict, provenance: dict, final: Path, out: Path, say) -> dict:
+    """``out/report.pdf``: the previous report's when made from the same inputs, else laid out;
+    what run.json records of it, and its pages."""
+    from . import pdf
+
+    pdf_key = _pdf_key(config, run["keys"], provenance)
+    pages = _reuse_pdf(final, pdf_key, out / "report.pdf")  # a warm rerun: the same bytes
+    reused = pages is not None
+    if not reused:
+        say("writing report.pdf ...")
+        pages = pdf.write_report(out / "report.pdf", config, run["results"], run["arrays"], provenance)
+    return {"key": pdf_key, "sha256": _file_sha256(out / "report.pdf"), "reused": reused, "pages": pages}
+
+
+def _run(config: ReportConfig, out: Path, staging: Path, verbosity: int, cache_dir, cal, t_start) -> dict:
+    """Every step, the data files and the PDF, written into ``staging`` (``out`` is only read)."""
+    from isj.provenance import git_revision, package_versions
+
+    final, out = out, staging
+
+    def say(msg: str, level: int = 1) -> None:
+        if verbosity >= level:
+            print(msg, file=sys.stderr, flush=True)
+
+    ctx = Context(config, cal, _fe_cache_dir(), progress=verbosity >= 1)
+    run = _compute_steps(ctx, StepStore(cache_dir or default_cache_dir()), out, say)
+    timings = run["timings"]
     t0 = time.perf_counter()
     vtu = out / "base.vtu"
-    if "model" not in cached or not _reuse_vtu(final, keys["model"], vtu):
+    if "model" not in run["cached"] or not _reuse_vtu(final, run["keys"]["model"], vtu):
         from .steps import write_base_vtu
 
         write_base_vtu(ctx, vtu)
     timings["vtu"] = time.perf_counter() - t0
     atomic_write_text(out / "resolved_config.toml", config.to_toml())
-    from isj.provenance import git_revision, package_versions
-
     provenance = {
         "versions": package_versions(),
         "git_revision": git_revision(),
         "date": time.strftime("%Y-%m-%d"),
-        "calibration": results["calibration"]["source"],
+        "calibration": run["results"]["calibration"]["source"],
     }
     t0 = time.perf_counter()
-    pdf_key = _pdf_key(config, keys, provenance)
-    pages = _reuse_pdf(final, pdf_key, out / "report.pdf")  # a warm rerun: the same bytes
-    pdf_reused = pages is not None
-    if not pdf_reused:
-        say("writing report.pdf ...")
-        pages = pdf.write_report(out / "report.pdf", config, results, arrays, provenance)
+    made = _write_pdf(config, run, provenance, final, out, say)
+    pages = made.pop("pages")
     timings["pdf"] = time.perf_counter() - t0
     timings["total"] = time.perf_counter() - t_start
     atomic_write_json(
@@ -246,20 +259,20 @@ def _run(config: ReportConfig, out: Path, staging: Path, verbosity: int, cache_d
             "timings_s": timings,
             # the process's peak resident memory so far, after each step: the step that raises
             # it is the one that sets the run's peak (not part of any key or compared output)
-            "peak_memory_gb_after_step": peak,
-            "memory_gb_after_step": held,  # resident now: what the steps before still hold
-            "cached_steps": cached,
+            "peak_memory_gb_after_step": run["peak"],
+            "memory_gb_after_step": run["held"],  # resident now: what the steps before still hold
+            "cached_steps": run["cached"],
             "pages": pages,
-            "step_keys": keys,
-            "pdf": {"key": pdf_key, "sha256": _file_sha256(out / "report.pdf"), "reused": pdf_reused},
+            "step_keys": run["keys"],
+            "pdf": made,
         },
     )
     say(f"wrote {final / 'report.pdf'} ({len(pages)} pages) in {timings['total']:.1f} s", 1)
     return {
-        "steps": results,
-        "arrays": arrays,
+        "steps": run["results"],
+        "arrays": run["arrays"],
         "timings_s": timings,
-        "cached": cached,
+        "cached": run["cached"],
         "pages": pages,
         "provenance": provenance,
     }
