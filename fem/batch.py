@@ -175,8 +175,7 @@ def transient_models(max_new: int = 1) -> Iterator[None]:
     with _LOCK:
         for clear in TRANSIENT_CLEARS:
             clear()
-        for model, _ in _MODELS.values():
-            model.free_solver()
+        free_solvers()
         before = dict(_MODELS)
         _TRANSIENT.append({"max_new": max_new, "new": []})
     try:
@@ -186,6 +185,15 @@ def transient_models(max_new: int = 1) -> Iterator[None]:
             _TRANSIENT.pop()
             _MODELS.clear()
             _MODELS.update(before)
+
+
+def free_solvers() -> None:
+    """Release the factorizations this process's memoised models keep (a few hundred MB each on
+    the default mesh). The models, their orderings and their kept static results stay; a later
+    solve analyses and factors again."""
+    with _LOCK:
+        for model, _ in _MODELS.values():
+            model.free_solver()
 
 
 def shared_model(settings: Mapping) -> tuple[PedicleJointModel, str]:

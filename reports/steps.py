@@ -315,12 +315,16 @@ def sweep_step(ctx: Context) -> tuple[dict, dict]:
 
 def ear_step(ctx: Context) -> tuple[dict, dict]:
     """The whole cat middle ear (docs/ear.md §5) with the joint model inside: static response per Pa."""
+    from isj.fem.batch import free_solvers
     from isj.fem.ear.shared import shared_ear
 
     from isj.ear import EXPERIMENT_STAPES_M_PER_PA, EXPERIMENT_UMBO_M_PER_PA, SPL_100DB_PEAK_PA
 
     cfg = ctx.config
     base = cfg.design.materials()
+    # the whole-ear steps solve the ear, not the joint alone: the joint models' factorizations
+    # (0.45 GB on the default mesh) would only raise the memory the ear's solves peak from
+    free_solvers()
     ear = shared_ear(ctx.settings, cfg.mesh.drum_mesh_size_m)  # the transmission and uq steps' too
     from tqdm import tqdm
 
