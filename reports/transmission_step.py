@@ -97,8 +97,9 @@ def fe_band(ctx, freq_hz: np.ndarray) -> tuple[dict, dict, dict, dict]:
     case is also reduced with FE: the fast ear is checked against it and against the rigid
     reduction, and the reduction against ``fe_checks`` direct harmonic solves.
     """
+    from isj.fem.batch import shared_model
     from isj.fem.ear import reduced_ear as es
-    from isj.fem.ear.fast_ear import fast_ear
+    from isj.fem.ear.fast_ear import fast_ear, stored_fast_ear
     from isj.fem.ear.shared import shared_ear
 
     cfg, t = ctx.config, ctx.config.transmission
@@ -130,16 +131,22 @@ def fe_band(ctx, freq_hz: np.ndarray) -> tuple[dict, dict, dict, dict]:
         first_rom = rom if i == 0 else first_rom
     checks = fe_checks(ctx, ear, fast, rigid, first_rom, freq_hz, out)
     if t.sliding_cases:  # the same ear with the sliding joint (docs/model.md §2.12)
-        sliding = shared_ear(ctx.settings | {"joint": "sliding"}, drum)  # its joint: the sliding step's
-        # the sliding joint's own fast ear (shipped for the default report, docs/fast_ear.md §14.7)
-        fast_sliding = fast_ear(sliding, cfg.ear, fmax_hz=t.fmax_hz) if t.cases_from == "fast" else None
+        sliding_settings = ctx.settings | {"joint": "sliding"}
+        fast_sliding = None
+        if t.cases_from == "fast":
+            # the sliding joint's own fast ear (shipped for the default report, docs/fast_ear.md
+            # §14.7): when it is stored, its whole ear is not built (its joint is the sliding step's)
+            sliding_joint, _ = shared_model(sliding_settings)
+            fast_sliding = stored_fast_ear(ear, cfg.ear, fmax_hz=t.fmax_hz, joint=sliding_joint)
+            if fast_sliding is None:
+                fast_sliding = fast_ear(shared_ear(sliding_settings, drum), cfg.ear, fmax_hz=t.fmax_hz)
         for name in t.sliding_cases:
             mats, col = case_by_name(name).materials(base), f"{name}_sliding"
             if fast_sliding is not None and fast_sliding.covers(mats):
                 out[col], cav[col] = fast_columns(fast_sliding, mats, freq_hz, damping, states)
                 info[col] = {"model": "fast", "n_dofs": fast_sliding.n_dofs}
                 continue
-            rom = es.reduced_ear(sliding, mats, cfg.ear, fmax_hz=t.fmax_hz)
+            rom = es.reduced_ear(shared_ear(sliding_settings, drum), mats, cfg.ear, fmax_hz=t.fmax_hz)
             out[col] = _columns(rom.frequency_response(freq_hz, damping))
             cav[col] = cavity_columns(rom, freq_hz, damping, states)
             info[col] = {"model": "fe", "n_dofs": rom.n_dofs}

@@ -10,7 +10,7 @@ tests/test_ear_reduced.py) and the rigid-joint FE ear.
 
 import numpy as np
 import pytest
-from isj.fem.ear.fast_ear import build_fast_ear, cache_key_of
+from isj.fem.ear.fast_ear import DEFAULT_POD_TOL, build_fast_ear, cache_key, cache_key_of, stored_fast_ear
 from isj.fem.ear.middle_ear import MiddleEarModel
 from isj.fem.ear.reduced_ear import reduced_ear
 from isj.fem.model import PedicleJointModel
@@ -45,6 +45,16 @@ def fast(ear):
 def test_the_sliding_ear_has_its_own_key(ear):
     bonded = MiddleEarModel(joint=PedicleJointModel(order=2, resolution=0.35), drum_mesh_size_m=DRUM_M)
     assert cache_key_of(ear) != cache_key_of(bonded)
+    # keyed through the bonded ear with the sliding joint in its place (what the report does to
+    # find the shipped sliding fast ear without building the sliding ear): the sliding ear's key
+    settings = {"fmax_hz": 20e3, "pod_tol": DEFAULT_POD_TOL}
+    assert cache_key(bonded, None, None, settings, joint=ear.joint) == cache_key_of(ear)
+
+
+def test_a_fast_ear_neither_cached_nor_shipped_is_not_built(ear, tmp_path, monkeypatch):
+    monkeypatch.setenv("ISJ_FE_CACHE_DIR", str(tmp_path))
+    assert stored_fast_ear(ear) is None
+    assert not any(tmp_path.rglob("*.npz"))
 
 
 @pytest.mark.parametrize("name", ["base", "j5c20"])

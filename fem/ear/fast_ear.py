@@ -860,17 +860,22 @@ def _code_digest() -> dict:
     return versions("ear")
 
 
-def cache_key(model, ear_materials, masses, settings: dict) -> str:
-    """sha256 (hex) of everything a fast ear depends on: meshes, geometry, ear data, settings, code."""
+def cache_key(model, ear_materials, masses, settings: dict, joint=None) -> str:
+    """sha256 (hex) of everything a fast ear depends on: meshes, geometry, ear data, settings, code.
+
+    ``joint``: a joint model to key in place of ``model``'s own (the key of the ear with
+    ``model``'s drum, footplate and anatomy around that joint, without building that ear).
+    """
+    joint = model.joint if joint is None else joint
     h = hashlib.sha256()
     for a in (model.drum.nodes_m, model.drum.triangles, model.footplate.nodes_m, model.footplate.triangles):
         a = np.ascontiguousarray(a)
         h.update(f"{a.dtype.str}|{a.shape}|".encode() + a.tobytes())
     payload = {
         "meshes": h.hexdigest(),
-        "joint_mesh": model.joint.mesh.content_hash(),
-        "order": int(getattr(model.joint, "order", 0)),
-        "sliding": str(getattr(model.joint, "joint", "bonded")),
+        "joint_mesh": joint.mesh.content_hash(),
+        "order": int(getattr(joint, "order", 0)),
+        "sliding": str(getattr(joint, "joint", "bonded")),
         "geometry": dataclasses.asdict(model.geometry),
         "ear_materials": dataclasses.asdict(ear_materials or EarMaterials()),
         "masses": dataclasses.asdict(masses or EarMasses()),
@@ -898,27 +903,68 @@ def fast_ear(
     :data:`SHIPPED_DIR`) is taken when ``shipped`` is true: a second instead of about a minute,
     the arrays of a build on the machine that made it.
     """
+    keyed = _keyed_settings(fmax_hz, pod_tol, settings)
+    key = cache_key(model, ear_materials, masses, keyed)
+    out = _stored(key, cache, shipped)
+    if out is None:
+        out = build_fast_ear(model, ear_materials, masses, fmax_hz, pod_tol=pod_tol, **settings)
+        if cache:
+            _store(key, out)
+    return out
+
+
+def stored_fast_ear(
+    model,
+    ear_materials: EarMaterials | None = None,
+    masses: EarMasses | None = None,
+    fmax_hz: float = 20e3,
+    pod_tol: float = DEFAULT_POD_TOL,
+    joint=None,
+) -> FastEar | None:
+    """The fast ear :func:`fast_ear` gives these arguments when it is cached or shipped, else None
+    (nothing is built).
+
+    ``joint``: the fast ear of the ear with ``model``'s drum, footplate and anatomy around this
+    joint model instead (the report's sliding joint: its fast ear is shipped, and its whole ear,
+    2–3 s to build and hundreds of MB, is then not needed).
+    """
+    key = cache_key(model, ear_materials, masses, _keyed_settings(fmax_hz, pod_tol, {}), joint=joint)
+    return _stored(key, cache=True, shipped=True)
+
+
+def _keyed_settings(fmax_hz, pod_tol, settings: dict) -> dict:
     keyed = {"fmax_hz": float(fmax_hz), "pod_tol": float(pod_tol)}
-    keyed |= {
+    return keyed | {
         k: (np.asarray(v).tolist() if v is not None else None) for k, v in settings.items() if k != "solver"
     }
-    key = cache_key(model, ear_materials, masses, keyed)
-    path = fast_ear_cache_dir() / f"fast-ear-{key[:32]}.npz"
+
+
+def _cache_path(key: str) -> Path:
+    return fast_ear_cache_dir() / f"fast-ear-{key[:32]}.npz"
+
+
+def _stored(key: str, cache: bool, shipped: bool) -> FastEar | None:
+    """The cache's fast ear under ``key`` (a damaged one is reported and dropped), else the shipped
+    one, which the cache then keeps; None where neither is."""
+    path = _cache_path(key)
     if cache and path.exists():
         try:
             return FastEar.load(path)
         except DamagedEntry as exc:
-            discard(path, "fast ear", str(exc), stacklevel=2)
+            discard(path, "fast ear", str(exc), stacklevel=3)
     out = load_shipped(key) if shipped else None
-    if out is None:
-        out = build_fast_ear(model, ear_materials, masses, fmax_hz, pod_tol=pod_tol, **settings)
-    if cache:
-        try:
-            path.parent.mkdir(parents=True, exist_ok=True)
-            out.save(path)
-        except OSError as exc:
-            warnings.warn(f"could not write fast-ear cache entry {path}: {exc}", CacheWarning, stacklevel=2)
+    if out is not None and cache:
+        _store(key, out)
     return out
+
+
+def _store(key: str, fast: FastEar) -> None:
+    path = _cache_path(key)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fast.save(path)
+    except OSError as exc:
+        warnings.warn(f"could not write fast-ear cache entry {path}: {exc}", CacheWarning, stacklevel=3)
 
 
 def cache_key_of(
@@ -1055,6 +1101,7 @@ def fast_ear_sweep(
 
 __all__ = [
     "SHIPPED_DIR",
+    "stored_fast_ear",
     "cache_key_of",
     "fast_ear_sweep",
     "load_shipped",
