@@ -30,12 +30,38 @@ from pathlib import Path
 
 CHANGE = "design.gap_e_pa=7e6"
 
-#: Runs its arguments and prints their peak resident set (kB) as the last line of stderr:
-#: a fresh process per run, so each run's peak is its own.
+#: Runs its arguments and prints, as the last line of stderr, the peak of the summed resident
+#: set (kB) of the process and all of its descendants (gmsh or any other helper process too),
+#: sampled every 50 ms from /proc, and the largest single process's peak (ru_maxrss), which
+#: catches a peak shorter than a sample.
 _PEAK = (
-    "import resource, subprocess, sys\n"
-    "code = subprocess.run(sys.argv[1:]).returncode\n"
-    "print(resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss, file=sys.stderr)\n"
+    "import os, resource, subprocess, sys, threading\n"
+    "def tree_kb(root):\n"
+    "    kids, rss = {}, {}\n"
+    "    for pid in filter(str.isdigit, os.listdir('/proc')):\n"
+    "        try:\n"
+    "            text = open(f'/proc/{pid}/status').read()\n"
+    "        except OSError:\n"
+    "            continue\n"
+    "        f = dict(l.split(':', 1) for l in text.splitlines() if ':' in l)\n"
+    "        kids.setdefault(int(f['PPid']), []).append(int(pid))\n"
+    "        rss[int(pid)] = int(f.get('VmRSS', '0 kB').split()[0])\n"
+    "    todo, total = [root], 0\n"
+    "    while todo:\n"
+    "        pid = todo.pop()\n"
+    "        total += rss.get(pid, 0)\n"
+    "        todo += kids.get(pid, [])\n"
+    "    return total\n"
+    "proc = subprocess.Popen(sys.argv[1:])\n"
+    "peak, done = [0], threading.Event()\n"
+    "def sample():\n"
+    "    while not done.wait(0.05):\n"
+    "        peak[0] = max(peak[0], tree_kb(proc.pid))\n"
+    "threading.Thread(target=sample, daemon=True).start()\n"
+    "code = proc.wait()\n"
+    "done.set()\n"
+    "single = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss\n"
+    "print(max(peak[0], single), single, file=sys.stderr)\n"
     "sys.exit(code)\n"
 )
 
@@ -51,14 +77,16 @@ def _run(label: str, args: list[str], env: dict[str, str], out: Path) -> dict:
     wall_s = time.perf_counter() - t0
     if proc.returncode != 0:
         raise SystemExit(f"{label} run failed (exit {proc.returncode}):\n{proc.stderr[-2000:]}")
-    peak_kb = int(proc.stderr.strip().splitlines()[-1])
+    peak_kb, single_kb = (int(v) for v in proc.stderr.strip().splitlines()[-1].split())
     run = json.loads((out / "run.json").read_text())
     return {
         "label": label,
         "wall_s": wall_s,
-        "peak_rss_gb": peak_kb / 1024**2,
+        "peak_rss_gb": peak_kb / 1024**2,  # all of the report's processes together
+        "peak_rss_one_process_gb": single_kb / 1024**2,
         "steps_s": run["timings_s"],
         "peak_gb_after_step": run.get("peak_memory_gb_after_step", {}),
+        "held_gb_after_step": run.get("memory_gb_after_step", {}),
         "cached_steps": run.get("cached_steps", []),
     }
 
@@ -67,11 +95,16 @@ def _print(result: dict) -> None:
     steps = result["steps_s"]
     # run.json's timings hold the steps and their "total": shares are of the total
     total = steps.get("total") or sum(steps.values()) or 1.0
-    print(f"{result['label']}: {result['wall_s']:.1f} s wall, peak {result['peak_rss_gb']:.2f} GB")
+    print(
+        f"{result['label']}: {result['wall_s']:.1f} s wall, peak {result['peak_rss_gb']:.2f} GB "
+        f"(all processes; the largest one {result['peak_rss_one_process_gb']:.2f} GB)"
+    )
     peak = result.get("peak_gb_after_step", {})
     for name, seconds in sorted(steps.items(), key=lambda kv: -kv[1]):
         mark = " (cached)" if name in result["cached_steps"] else ""
+        held = result.get("held_gb_after_step", {}).get(name)
         after = f"  peak {peak[name]:.2f} GB after it" if name in peak else ""
+        after += f", {held:.2f} GB held" if held is not None else ""
         print(f"  {name:18s} {seconds:7.1f} s  {100 * seconds / total:5.1f} %{mark}{after}")
 
 
