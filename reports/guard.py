@@ -17,10 +17,14 @@ from .layout import text_block, wrap
 def guard_step(ctx) -> tuple[dict, dict]:
     """Corners and a dense sample through the surrogate; FE at the ``fe_checks`` worst designs."""
     from isj.calibration.guard import confirmations, run_guard, worst_picks
+    from isj.fem.batch import free_solvers
     from isj.fem.rom import reduced_model
 
     from isj.design_space import DesignSpace
 
+    # the FE checks are designs of their own: the factorizations the steps before kept (the
+    # bonded and sliding joints', 0.45 GB each on the default mesh) would only be held beside them
+    free_solvers()
     cfg, g = ctx.config, ctx.config.guard
     base = cfg.design.materials()
     rom = reduced_model(

@@ -187,11 +187,13 @@ def transmission_evaluator(ctx):
 def uq_step(ctx) -> tuple[dict, dict]:
     """The moduli's uncertainty carried to α, β and β/α on the lumped model, and to ΔH_V on the
     fast ear (docs/uq.md §11)."""
+    from isj.fem.batch import free_solvers
     from isj.lumped.api import LumpedModel
 
     from isj.studies.uq import lumped_evaluator, run_uq
     from isj.studies.uq_inputs import UQConfig
 
+    free_solvers()  # no FE solve here: the joint models' factorizations would only be held
     cfg, u = ctx.config, ctx.config.uq
     lm = LumpedModel(ctx.calibration, cfg.geometry)
     domain = dict(ctx.calibration.domain)
