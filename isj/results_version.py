@@ -84,11 +84,11 @@ LIBRARIES = {
 #: The version of each report step's own code (:data:`isj.reports.steps.STEPS`).
 STEP_VERSIONS = {
     "model": 1,
+    "sweep": 1,
     "cases": 1,
     "trends": 1,
     "convergence": 1,
     "calibration": 1,
-    "sweep": 1,
     "ear": 1,
     "transmission": 3,
     "load_path": 1,

@@ -402,11 +402,13 @@ DESIGN_OF_CASES = tuple(f"design.{k}" for k in DesignConfig.CONFIG_KEYS if k not
 #: keys of one, "section.key").
 STEPS = (
     ("model", model_step, ("design", "geometry", *MESH_NO_DRUM)),
+    # right after the model step: its harmonic checks and modes are of the base design, whose
+    # factorization the model step's static solve leaves in the joint model (one fewer)
+    ("sweep", sweep_step, ("design", "geometry", *MESH_NO_DRUM, "sweep")),
     ("cases", cases_step, (*DESIGN_OF_CASES, "geometry", *MESH_NO_DRUM)),
     ("trends", trends_step, ("design", "geometry", *MESH_NO_DRUM, "trends")),
     ("convergence", convergence_step, ("geometry", "convergence")),
     ("calibration", calibration_step, ("design", "geometry", *MESH_NO_DRUM, "calibration")),
-    ("sweep", sweep_step, ("design", "geometry", *MESH_NO_DRUM, "sweep")),
     ("ear", ear_step, (*DESIGN_OF_CASES, "geometry", "mesh", "ear")),
     (
         "transmission",

@@ -173,7 +173,7 @@ class _Interrupted(Exception):
 
 @pytest.fixture(scope="session")
 def report(tmp_path_factory):
-    """Run the coarse report: interrupted at the sweep, then again to the end, then once more.
+    """Run the coarse report: interrupted at the ear, then again to the end, then once more.
 
     Returns ``dir`` (the output folder), ``case`` (its TOML), ``config``, ``fe_cache``
     (``$ISJ_FE_CACHE_DIR``: FE results, and the step cache in its ``report`` folder),
@@ -196,7 +196,7 @@ def report(tmp_path_factory):
 
     original = run_mod.STEPS
     try:
-        steps = tuple((n, interrupted if n == "sweep" else f, s) for n, f, s in original)
+        steps = tuple((n, interrupted if n == "ear" else f, s) for n, f, s in original)
         mp.setattr(run_mod, "STEPS", steps)
         with pytest.raises(_Interrupted):
             run_mod.run_report(config, out, verbosity=0)

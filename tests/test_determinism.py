@@ -38,7 +38,7 @@ _MODES = textwrap.dedent(
     """
 )
 
-# interrupted at the sweep (the sixth of seven steps), as a user's Ctrl-C would be
+# interrupted at the ear (the seventh step), as a user's Ctrl-C would be
 _INTERRUPTED_REPORT = textwrap.dedent(
     """
     import sys
@@ -47,7 +47,7 @@ _INTERRUPTED_REPORT = textwrap.dedent(
 
     def interrupted(ctx):
         raise KeyboardInterrupt
-    run.STEPS = tuple((n, interrupted if n == "sweep" else f, s) for n, f, s in run.STEPS)
+    run.STEPS = tuple((n, interrupted if n == "ear" else f, s) for n, f, s in run.STEPS)
     try:
         run.run_report(load_config(sys.argv[1]), sys.argv[2], verbosity=0)
     except KeyboardInterrupt:
@@ -113,7 +113,7 @@ def test_cold_and_warm_resumed_reports_give_the_same_data(tmp_path, cold_cli_rep
     assert not (tmp_path / "resumed").exists()  # nothing half-written is left under --out
     _report(case, tmp_path / "resumed", resumed_env)
     run = json.loads((tmp_path / "resumed" / "run.json").read_text())
-    assert run["cached_steps"] == ["model", "cases", "trends", "convergence", "calibration"]
+    assert run["cached_steps"] == ["model", "sweep", "cases", "trends", "convergence", "calibration"]
 
     cold = _data(cold_dir)
     assert len(cold) >= 7

@@ -232,11 +232,11 @@ def test_report_with_another_stack_height_completes_and_a_failed_run_leaves_the_
     # ΔH_V comes from the fast ear of the report's ear)
     assert summary["cached"] == [
         "model",
+        "sweep",
         "cases",
         "trends",
         "convergence",
         "calibration",
-        "sweep",
         "sliding",
         "guard",
         "geometry_trends",
