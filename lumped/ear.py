@@ -403,25 +403,30 @@ def ear_model(
     if coupling is not None:  # the joint's regions, for the damping per region
         parts |= _joint_region_stiffness(frame, factors, jg, joint, moduli)
     E_visc, K_loss = damping_terms(dmp, parts, masses_by_part, dash)
-    joint_terms = None
-    if coupling is not None:  # the joint's own share of K, E and K_loss, for the load-path analysis
-        E_j, L_j = damping_terms(dmp, {r: parts[r] for r in parts if r in REGIONS})
-        blk = (..., slice(frame.ia, frame.ia + 2), slice(frame.ia, frame.ia + 2))
-        joint_terms = (coupling.stiffness, E_j[blk], L_j[blk])
+    joint_terms = _joint_share(frame, dmp, parts, coupling)
     M = sum(masses_by_part.values())  # (nd, n, n)
     Bq, C, d_umbo = _load_and_outputs(frame, g, drum, mode_terms[2], K)
-    single = coupling is None or all(np.ndim(v) == 0 for v in moduli.values())
-    Bb = np.broadcast_to(Bq, (frame.nd, frame.n, 1)).copy()
-    if single:
-        K, M, E_visc, K_loss = K[0], M[0], E_visc[0], K_loss[0]
-        Bb, C, d_umbo = Bb[0], C[0], d_umbo[0]
+    arrays = [K, M, E_visc, K_loss, np.broadcast_to(Bq, (frame.nd, frame.n, 1)).copy(), C, d_umbo]
+    if coupling is None or all(np.ndim(v) == 0 for v in moduli.values()):  # one design
+        arrays = [a[0] for a in arrays]
         if joint_terms is not None:
             joint_terms = tuple(np.broadcast_to(t, (frame.nd, 2, 2))[0] for t in joint_terms)
+    K, M, E_visc, K_loss, Bb, C, d_umbo = arrays
     system = SecondOrderModel(M=M, E=E_visc, K=K, B=Bb, C=C, K_loss=K_loss)
     modal = slice(frame.iw + 1, frame.n) if frame.n_modes else None
     return LumpedEar(
         system=system, coordinates=frame.names, umbo_direction=d_umbo, drum_modes=modal, joint=joint_terms
     )
+
+
+def _joint_share(frame, dmp, parts: dict, coupling):
+    """The joint's own share of K, E and K_loss on (α, β), for the load-path analysis; None
+    without a joint."""
+    if coupling is None:
+        return None
+    E_j, L_j = damping_terms(dmp, {r: parts[r] for r in parts if r in REGIONS})
+    blk = (..., slice(frame.ia, frame.ia + 2), slice(frame.ia, frame.ia + 2))
+    return coupling.stiffness, E_j[blk], L_j[blk]
 
 
 def _check_reference_points(g: EarGeometry, drum: EardrumParameters, modes) -> None:
