@@ -219,7 +219,7 @@ def register(sub) -> None:
 def sweep(args) -> int:
     import numpy as np
 
-    from isj.calibration.checks import warn_fe_settings, warn_outside_domain
+    from isj.calibration.checks import warn_outside_domain
     from isj.studies.sweeps import chain_sweep
 
     from ..atomic import replace_dir
@@ -251,31 +251,7 @@ def sweep(args) -> int:
     )
     check_sweep_finite(sw, args)
     keys = sw.outputs[:2]  # α and β: the incus face's u_x follows from them
-    checks = []
-    if fe_freq.size:
-        from isj.fem.dynamics import harmonic_outputs
-        from isj.fem.model import PedicleJointModel
-
-        warn_fe_settings(cal, args.order, args.resolution)
-        fem_model = PedicleJointModel(
-            geometry, args.order, args.resolution, solver=args.solver, joint=cal.joint
-        )
-
-        def fe_response(f):
-            return harmonic_outputs(fem_model, f, m, damping, args.pressure)
-
-        comp = sw.fe_checks(fe_freq, fe_response, keys)
-        passed = comp.passed(args.tolerance)
-        for i, f in enumerate(comp.freq_hz):
-            fe = comp.fe[i]
-            checks.append(
-                {
-                    "freq_hz": float(f),
-                    **{f"fe_{k}": [float(fe[j].real), float(fe[j].imag)] for j, k in enumerate(keys)},
-                    **{f"{k}_rel_error": e for k, e in comp.errors(i).items()},
-                    "passed": bool(passed[i]),
-                }
-            )
+    checks = _fe_checks(args, cal, geometry, m, damping, sw, fe_freq, keys) if fe_freq.size else []
     summary = {
         "n_freq": int(args.n),
         "joint": cal.joint,
@@ -294,20 +270,53 @@ def sweep(args) -> int:
     if args.json:
         c.print_json(summary)
     else:
-        modes = zip(sw.natural_freq_hz, sw.damping_ratio, strict=True)
-        print(
-            f"lumped sweep {args.fmin_hz:g}-{args.fmax_hz:g} Hz ({args.n} points); natural frequencies "
-            + ", ".join(f"{v:.0f} Hz (zeta {z:.2f})" for v, z in modes)
-        )
-        for ck in checks:
-            print(
-                f"  FE check at {ck['freq_hz']:.0f} Hz: alpha {100 * ck['alpha_rad_rel_error']:.2f} %, "
-                f"beta {100 * ck['beta_rad_rel_error']:.2f} % {'ok' if ck['passed'] else 'EXCEEDS tolerance'}"
-            )
-        print(f"wrote {out}/sweep.csv, sweep.npz, bode.png, sweep.json")
+        _print_sweep(args, out, sw, checks)
     if not summary["passed"]:
         return c.fail(f"an FE check exceeds the tolerance {args.tolerance:g}")
     return 0
+
+
+def _fe_checks(args, cal, geometry, m, damping, sw, fe_freq, keys) -> list[dict]:
+    """The FE harmonic spot checks of the lumped chain at ``fe_freq`` (Hz), one row each."""
+    from isj.calibration.checks import warn_fe_settings
+    from isj.fem.dynamics import harmonic_outputs
+    from isj.fem.model import PedicleJointModel
+
+    warn_fe_settings(cal, args.order, args.resolution)
+    fem_model = PedicleJointModel(geometry, args.order, args.resolution, solver=args.solver, joint=cal.joint)
+
+    def fe_response(f):
+        return harmonic_outputs(fem_model, f, m, damping, args.pressure)
+
+    comp = sw.fe_checks(fe_freq, fe_response, keys)
+    passed = comp.passed(args.tolerance)
+    checks = []
+    for i, f in enumerate(comp.freq_hz):
+        fe = comp.fe[i]
+        checks.append(
+            {
+                "freq_hz": float(f),
+                **{f"fe_{k}": [float(fe[j].real), float(fe[j].imag)] for j, k in enumerate(keys)},
+                **{f"{k}_rel_error": e for k, e in comp.errors(i).items()},
+                "passed": bool(passed[i]),
+            }
+        )
+    return checks
+
+
+def _print_sweep(args, out, sw, checks) -> None:
+    """The sweep's report lines: the chain's modes, each FE check, the files written."""
+    modes = zip(sw.natural_freq_hz, sw.damping_ratio, strict=True)
+    print(
+        f"lumped sweep {args.fmin_hz:g}-{args.fmax_hz:g} Hz ({args.n} points); natural frequencies "
+        + ", ".join(f"{v:.0f} Hz (zeta {z:.2f})" for v, z in modes)
+    )
+    for ck in checks:
+        print(
+            f"  FE check at {ck['freq_hz']:.0f} Hz: alpha {100 * ck['alpha_rad_rel_error']:.2f} %, "
+            f"beta {100 * ck['beta_rad_rel_error']:.2f} % {'ok' if ck['passed'] else 'EXCEEDS tolerance'}"
+        )
+    print(f"wrote {out}/sweep.csv, sweep.npz, bode.png, sweep.json")
 
 
 def _write(args, out, sw, fe_freq, checks) -> None:
