@@ -153,6 +153,14 @@ def calibrate(args) -> int:
         log=None if args.quiet else (lambda line: print(f"isj: adaptive {line}", flush=True)),
     )
     atomic_write_text(out, cal.to_json())
+    _print_calibration(cal)
+    print(f"wrote {out}")
+    return 0
+
+
+def _print_calibration(cal) -> None:
+    """The calibration's report lines: training and validation errors, the chain's fit, the
+    adaptive rounds."""
     t, v = cal.training, cal.validation
     print(
         f"calibrated on {t['n']} FE designs ({cal.joint} joint): max error "
@@ -188,5 +196,3 @@ def calibrate(args) -> int:
             f"certified error {100 * best['max_certified_error']:.2f} % over the corners and "
             f"{a['n_dense']} dense designs; {region_summary(cal.region)}"
         )
-    print(f"wrote {out}")
-    return 0
