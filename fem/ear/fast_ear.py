@@ -789,14 +789,7 @@ def build_fast_ear(
     n_shifts : Krylov shifts of the shells (:func:`fem.ear.reduced_ear.shell_basis`)
     solver : sparse solver backend for the snapshots
     """
-    if model.joint is None:
-        raise InvalidParameter(
-            "model: the fast ear needs the joint model inside (joint=None is the rigid ear)"
-        )
-    if not (np.isfinite(fmax_hz) and fmax_hz > 0):
-        raise InvalidParameter(f"fmax_hz = {fmax_hz!r} Hz: must be a finite number > 0")
-    if not (np.isfinite(pod_tol) and 0 <= pod_tol < 1):
-        raise InvalidParameter(f"pod_tol = {pod_tol!r}: must lie in [0, 1)")
+    _check_build_inputs(model, fmax_hz, pod_tol)
     t0 = time.perf_counter()
     space = space or DesignSpace()
     designs = snapshot_designs(space) if designs_pa is None else space.check(designs_pa)
@@ -814,25 +807,8 @@ def build_fast_ear(
     kr = np.setdiff1d(np.arange(k), np.concatenate([jb, jz]))
     ii = np.arange(k, V.shape[1])
     _check_structure(groups, model.joint.regions, jb, jz, k)
-    g_ = model.geometry
-    arrays = {f"k:{n}": P for n, P in groups["stiffness"].items()}
-    arrays |= {f"m:{n}": P for n, P in groups["mass"].items()}
-    arrays |= {f"d:{n}": P for n, P in groups["dashpots"].items()}
-    arrays |= {
-        "load": load,
-        "rows": rows,
-        "jb": jb,
-        "jz": jz,
-        "kr": kr,
-        "ii": ii,
-        "region_e0_pa": np.array([reference.youngs(r) for r in model.joint.regions]),
-        "piston_direction": np.asarray(g_.piston_direction, float),
-        "footplate_area_m2": np.array(parts.footplate_area_m2),
-        "rigid_map": np.vstack(
-            [np.eye(6), rigid_body_modes(np.asarray(g_.stapes_head_m)[None], g_.body_reference_m)]
-        ),
-        "snapshot_designs_pa": designs,
-    }
+    index = {"jb": jb, "jz": jz, "kr": kr, "ii": ii}
+    arrays = _fast_ear_arrays(model, parts, groups, load, rows, index, reference, designs)
     t4 = time.perf_counter()
     meta = {
         "regions": list(model.joint.regions),
@@ -851,6 +827,39 @@ def build_fast_ear(
         },
     }
     return FastEar(arrays, space, meta)
+
+
+def _check_build_inputs(model, fmax_hz: float, pod_tol: float) -> None:
+    """The ear must hold its joint model; f_max finite and positive, the POD tolerance in [0, 1)."""
+    if model.joint is None:
+        raise InvalidParameter(
+            "model: the fast ear needs the joint model inside (joint=None is the rigid ear)"
+        )
+    if not (np.isfinite(fmax_hz) and fmax_hz > 0):
+        raise InvalidParameter(f"fmax_hz = {fmax_hz!r} Hz: must be a finite number > 0")
+    if not (np.isfinite(pod_tol) and 0 <= pod_tol < 1):
+        raise InvalidParameter(f"pod_tol = {pod_tol!r}: must lie in [0, 1)")
+
+
+def _fast_ear_arrays(model, parts, groups: dict, load, rows, index: dict, reference, designs) -> dict:
+    """What a fast ear stores: its parts by group, in the order they are summed (which decides
+    the last bits), the load and output rows, the coordinates' index sets ``index`` (jb, jz, kr,
+    ii) and the data its outputs need."""
+    g_ = model.geometry
+    arrays = {f"k:{n}": P for n, P in groups["stiffness"].items()}
+    arrays |= {f"m:{n}": P for n, P in groups["mass"].items()}
+    arrays |= {f"d:{n}": P for n, P in groups["dashpots"].items()}
+    arrays |= {"load": load, "rows": rows, **index}
+    arrays |= {
+        "region_e0_pa": np.array([reference.youngs(r) for r in model.joint.regions]),
+        "piston_direction": np.asarray(g_.piston_direction, float),
+        "footplate_area_m2": np.array(parts.footplate_area_m2),
+        "rigid_map": np.vstack(
+            [np.eye(6), rigid_body_modes(np.asarray(g_.stapes_head_m)[None], g_.body_reference_m)]
+        ),
+        "snapshot_designs_pa": designs,
+    }
+    return arrays
 
 
 def _code_digest() -> dict:
