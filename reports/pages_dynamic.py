@@ -189,16 +189,26 @@ def sweep_page(fig, sweep: dict, arrays: dict):
 
 
 def ear_page(fig, ear: dict, arrays: dict, cases: dict):
+    """The whole ear: its picture, its static response beside the experiment, the seven cases'
+    α and β inside it beside the isolated model's, and what the model is."""
     ax = fig.add_axes([0.02, 0.52, 0.80, 0.38], projection="3d")
     drum = figures.ear_picture(ax, arrays)[0]
     ax.set_title("eardrum |u| per Pa (nm/Pa), base case; ossicular chain and footplate", fontsize=8)
     cb = fig.colorbar(drum, cax=fig.add_axes([0.86, 0.62, 0.015, 0.22], label="<colorbar>"))
     cb.ax.tick_params(labelsize=6)
     cb.set_label("nm/Pa", fontsize=7)
+    iso = {row["case"]: row["fe"] for row in cases["rows"]}
+    text_block(fig, 0.07, 0.52, "\n".join(_ear_response_lines(ear)), fontsize=7)
+    text_block(fig, 0.07, 0.33, "\n".join(_ear_case_lines(ear, iso)), fontsize=7)
+    text_block(fig, 0.07, 0.12, wrap(_ear_note(ear, iso), 110), fontsize=7)
+
+
+def _ear_response_lines(ear: dict) -> list[str]:
+    """The base case's and the rigid joint's static response per Pa beside the experiment; the
+    axis of rotation, the lever ratio and the model's size."""
     exp = ear["experiment"]
     nm = 1e9
     head = f"{'per Pa of ear-canal pressure':30} {'joint model':>12} {'rigid joint':>12} {'experiment':>12}"
-    by_case = {c["case"]: c for c in ear["cases"]}
     b, r = ear["cases"][0], ear["rigid_joint"]
     s_lo, s_hi = exp["stapes_m_per_pa"]
     rows = [
@@ -228,37 +238,46 @@ def ear_page(fig, ear: dict, arrays: dict, cases: dict):
         f"{ear['n_dofs']} dofs with the joint model, {ear['n_dofs_rigid_joint']} with a rigid joint",
         f"experiment: {exp['source']}",
     ]
-    text_block(fig, 0.07, 0.52, "\n".join(lines), fontsize=7)
-    iso = {row["case"]: row["fe"] for row in cases["rows"]}
-    lines2 = [
+    return lines
+
+
+def _ear_case_lines(ear: dict, iso: dict) -> list[str]:
+    """α, β and β/α of each case inside the ear beside β/α of the isolated model, and the base
+    case at 100 dB SPL."""
+    lines = [
         f"{'':6}   {'inside the ear, per Pa':^26}   {'isolated':^8}",
         f"{'case':6} | {'alpha urad':>10} {'beta urad':>10} {'b/a':>6} | {'b/a':>6}",
         "-" * 47,
     ]
     for c in ear["cases"]:
         a, bb, name = c["alpha_rad_per_pa"], c["beta_rad_per_pa"], c["case"]
-        lines2.append(
+        lines.append(
             f"{name:6} | {urad(a):>10} {urad(bb):>10} {ratio(bb / a):>6} | "
             f"{ratio(iso[name]['beta_over_alpha']):>6}"
         )
     base_b = ear["cases"][0]
     spl = ear["spl_100db_peak_pa"]
-    lines2 += [
+    lines += [
         "",
         f"At 100 dB SPL ({spl:g} Pa peak) the base case gives "
         f"alpha {urad(base_b['alpha_rad_per_pa'] * spl)} urad "
         f"and beta {urad(base_b['beta_rad_per_pa'] * spl)} urad.",
     ]
-    text_block(fig, 0.07, 0.33, "\n".join(lines2), fontsize=7)
+    return lines
+
+
+def _ear_note(ear: dict, iso: dict) -> str:
+    """What the whole-ear model is, and how far β moves across the cases inside it and isolated."""
     m = ear["ear_materials"]
 
     def spread(values):
         return f"{100 * (min(values) / values[0] - 1):+.0f} % to {100 * (max(values) / values[0] - 1):+.0f} %"
 
+    by_case = {c["case"]: c for c in ear["cases"]}
     names = list(by_case)
     beta_ear = [by_case[n]["beta_rad_per_pa"] for n in names]
     beta_iso = [iso[n]["beta_rad"] for n in names]
-    note = (
+    return (
         "The whole ear (docs/ear.md §5): the pars tensa as a flat-facet shell "
         f"(E = {m['drum_e_pa'] / 1e6:g} MPa, {m['drum_thickness_m'] * 1e6:g} um), clamped at the ring; "
         "malleus and incus as one rigid body on the anterior mallear and posterior incudal ligament "
@@ -270,4 +289,3 @@ def ear_page(fig, ear: dict, arrays: dict, cases: dict):
         f"{spread(beta_ear)} from the base case inside the ear, against {spread(beta_iso)} in the isolated "
         "model, which is loaded by a fixed pressure on the incus."
     )
-    text_block(fig, 0.07, 0.12, wrap(note, 110), fontsize=7)
