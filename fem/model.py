@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import time
 import warnings
-from collections import OrderedDict
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -37,6 +36,7 @@ from .assembly import assemble_mass, assemble_regions, build_pattern, combine, l
 from .boundary import Reduction, clamped_dofs, pressure_load
 from .dynamics import harmonic_response, modes
 from .energy import element_strain_energy_density, region_strain_energy
+from .memo import kept_result
 from .sliding import (
     DEFAULT_LAYER_SHEAR_PA,
     check_joint,
@@ -337,16 +337,7 @@ class PedicleJointModel(ElasticModel):
         # only the layer joint reads its shear modulus, which may be set anew on the model
         layer_shear_pa = self.layer_shear_pa if self.joint == "layer" else None
         key = (materials, pressure_pa, layer_shear_pa)
-        memo = self.__dict__.setdefault("_static_memo", OrderedDict())
-        if key in memo:
-            memo.move_to_end(key)
-            return memo[key]
-        result = self._static(materials, pressure_pa)
-        result.displacement_m.flags.writeable = False
-        memo[key] = result
-        while len(memo) > STATIC_MEMO:
-            memo.popitem(last=False)
-        return result
+        return kept_result(self, key, lambda: self._static(materials, pressure_pa), STATIC_MEMO)
 
     def _static(self, materials: Materials, pressure_pa: float) -> StaticResult:
         u = self.displacement(materials, pressure_pa)
@@ -357,6 +348,7 @@ class PedicleJointModel(ElasticModel):
         if self.joint == "layer":
             energy["gap"] += layer_gap_energy_change(self, materials, u)
         disp = u.reshape(-1, 3)
+        disp.flags.writeable = False  # a kept result (static()): nobody may change it
         self.timings_s["post"] = time.perf_counter() - t0
         return StaticResult(
             alpha_rad=float(a),

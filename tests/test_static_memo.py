@@ -63,3 +63,27 @@ def test_the_oldest_result_goes_first(model, monkeypatch):
         model.static(m)
     assert calls == [a, b, c, b]
     assert np.isfinite(model.static(a).alpha_rad) and len(calls) == 4
+
+
+def test_the_ear_keeps_its_static_results_and_harmonic_takes_the_umbo_direction_from_them(coarse_ear):
+    """The whole ear keeps its static results as the joint model does, and a harmonic solve's umbo
+    direction is the kept static solution's (no complex factorization for it)."""
+    from isj.fem.ear.dynamics import harmonic
+
+    from isj.ear import EarMaterials
+
+    soft = Materials(gap_e_pa=3e6)
+    first = coarse_ear.static(soft, EarMaterials())
+    assert coarse_ear.static(Materials(gap_e_pa=3e6)) is first  # equal inputs (the default ear), kept
+    with pytest.raises(ValueError):
+        first.displacement[0] = 1.0
+    res = harmonic(coarse_ear, [500.0, 2000.0], soft, damping="undamped")
+    assert res.static is first
+    direction = first.umbo_vector_m_per_pa / np.linalg.norm(first.umbo_vector_m_per_pa)
+    assert np.array_equal(res.umbo_direction, direction)
+    # below the first resonance the undamped umbo moves in phase with its static direction
+    umbo = res.umbo_m_per_pa[0]
+    assert umbo.real > 0 and abs(umbo.imag) < 1e-12 * abs(umbo)
+    np.testing.assert_allclose(
+        np.abs(res.umbo_m_per_pa[0]), np.linalg.norm(res.umbo_vector_m_per_pa[0]), rtol=1e-3
+    )

@@ -271,8 +271,8 @@ class EarHarmonicResult:
     umbo_vector_m_per_pa, footplate_m_per_pa : (n, 3) complex displacement vectors (m/Pa)
     umbo_direction : (3,) the umbo's static direction of motion
     static : the static solution (:class:`fem.ear.middle_ear.EarStaticResult`)
-    timings_s : seconds (stiffness_mass; factor_solve for all frequencies and the static one;
-        per_frequency)
+    timings_s : seconds (stiffness_mass; factor_solve: every frequency's, and the static solve
+        where the model does not keep it; per_frequency)
     """
 
     freq_hz: np.ndarray
@@ -365,8 +365,10 @@ def harmonic(
     L, C = damping_data(model, damping, materials, ear_materials, masses)
     t1 = time.perf_counter()
     f = model.load_reduced * pressure_pa
-    x_static, q = _static_then_harmonic(model, (K, M, L, C), f, 2 * np.pi * freqs, damping.damped(names))
-    static = model.result(np.asarray(model.T @ x_static.real / pressure_pa), materials)
+    q = _harmonic_solutions(model, (K, M, L, C), f, 2 * np.pi * freqs, damping.damped(names))
+    # the umbo's direction is the static solution's: the model's own (kept per design: the report's
+    # ear step has solved it), by a real SPD factorization rather than a complex one
+    static = model.static(materials, ear_materials)
     d_umbo = static.umbo_vector_m_per_pa / np.linalg.norm(static.umbo_vector_m_per_pa)
     t2 = time.perf_counter()
     if cavities != "open" and pressure_pa != 0:  # fᵀq per Pa: the drum's volume displacement
@@ -387,26 +389,24 @@ def harmonic(
         timings_s={
             "stiffness_mass": t1 - t0,
             "factor_solve": t2 - t1,
-            "per_frequency": (t2 - t1) / (freqs.size + 1),
+            "per_frequency": (t2 - t1) / freqs.size,
         },
         displacement=u if keep_displacement else None,
     )
 
 
 def _system_data(K, M_data, L, C, w, damped: bool) -> np.ndarray:
-    """Z's data on K's pattern: K alone for ``w`` None (the static system), else Z(ω).
+    """Z(ω)'s data on K's pattern.
 
     Damped: K + iL + iωC − ω²M (complex symmetric); undamped: K − ω²M (real symmetric indefinite).
     """
-    if w is None:
-        return K.data.astype(complex) if damped else K.data
     if damped:
         return K.data + 1j * (L + w * C) - w**2 * M_data
     return K.data - w**2 * M_data
 
 
-def _static_then_harmonic(model, system, f, w, damped: bool) -> tuple[np.ndarray, np.ndarray]:
-    """The reduced static solution K q = f, then Z(ω) q = f at each ω of ``w`` (rad/s), by one solver.
+def _harmonic_solutions(model, system, f, w, damped: bool) -> np.ndarray:
+    """Z(ω) q = f at each ω of ``w`` (rad/s), by one solver: one analysis, one factorization per ω.
 
     Parameters
     ----------
@@ -418,37 +418,25 @@ def _static_then_harmonic(model, system, f, w, damped: bool) -> tuple[np.ndarray
 
     Returns
     -------
-    (n_dofs,) static solution (complex when damped) and (n, n_dofs) complex harmonic solutions.
-    One factorization per system, one analysis for all.
+    (n, n_dofs) complex harmonic solutions.
     """
     K, M, L, C = system
     backend = "superlu" if model._solver_name == "superlu" else "auto"
-    # the static solver's ordering is not reused: a shared rigid-joint model crashed (SIGSEGV in
-    # PARDISO) in tests/test_lumped_ear.py after earlier static solves when it was; a fresh analysis
-    perm = None
     solver = None
-    x_static = None
     q = np.zeros((w.size, model.n_dofs), dtype=complex)
-    # the static solution (for the umbo's direction) by the same solver, first: the model's own
-    # static PARDISO solver is left alone (mixing it with other PARDISO instances crashed, SIGSEGV,
-    # in tests/test_lumped_ear.py)
     try:
-        for i, wi in enumerate(np.concatenate([[None], w])):
+        for i, wi in enumerate(w):
             data = _system_data(K, M.data, L, C, wi, damped)
             Z = sp.csr_matrix((data, K.indices, K.indptr), shape=K.shape)
             if solver is None:
                 make = make_complex_symmetric_solver if damped else make_indefinite_solver
-                solver = make(Z, backend, perm)
+                solver = make(Z, backend)
             solver.factor(Z)
-            x = np.ravel(solver.solve(f))
-            if i == 0:
-                x_static = x
-            else:
-                q[i - 1] = x
+            q[i] = np.ravel(solver.solve(f))
     finally:
         if solver is not None:
             solver.free()
-    return x_static, q
+    return q
 
 
 def _point_motions(model, u: np.ndarray):

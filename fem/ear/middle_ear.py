@@ -49,6 +49,7 @@ from isj.cases import THESIS_CASES
 from isj.design import Materials
 from isj.ear import DEFAULT_DRUM_MESH_SIZE_M, EarGeometry, EarMasses, EarMaterials
 
+from ..memo import kept_result
 from ..sliding import tied_nodes
 from ..solvers import make_solver
 from .constraints import rigid_body_modes
@@ -58,6 +59,9 @@ from .elimination import ConstraintBuilder, ReducedPattern
 from .footplate import FOOTPLATE_DENSITY_KG_M3, footplate_mesh
 from .rigid import axis_of_rotation, grounded_springs, point_map
 from .shell import NDOF, ShellMaterial, _element_dofs, element_stiffness
+
+#: Static results each model keeps (:meth:`MiddleEarModel.static`), about 1 MB each on the default ear.
+STATIC_MEMO = 16
 
 #: Density of the pars tensa (kg/m³), :attr:`isj.ear.EarMasses.drum_density_kg_m3` (estimate);
 #: statics ignore it, :mod:`fem.ear.dynamics` reads :class:`isj.ear.EarMasses`.
@@ -388,8 +392,19 @@ class MiddleEarModel:
         ----------
         materials : moduli of the embedded joint model (ignored by the rigid-joint variant)
         ear_materials : eardrum, footplate and spring constants (default: docs/ear.md §5.8)
+
+        The model keeps its last :data:`STATIC_MEMO` results: the same materials again return
+        the same result (its displacement read-only), as a new solve would bit for bit, without
+        the factorization. The report's ear step and the transmission step's direct checks
+        (:func:`fem.ear.dynamics.harmonic`, which takes the umbo's direction from it) ask for
+        the same designs.
         """
         materials = materials or Materials()
+        ear_materials = ear_materials or EarMaterials()
+        key = (materials, ear_materials)
+        return kept_result(self, key, lambda: self._static(materials, ear_materials), STATIC_MEMO)
+
+    def _static(self, materials: Materials, ear_materials: EarMaterials) -> EarStaticResult:
         t0 = time.perf_counter()
         K = self.stiffness(materials, ear_materials)
         t1 = time.perf_counter()
@@ -404,6 +419,7 @@ class MiddleEarModel:
             "post": t3 - t2,
             "total": t3 - t0,
         }
+        res.displacement.flags.writeable = False  # a kept result (static()): nobody may change it
         return res
 
     def drum_displacement(self, u) -> np.ndarray:
