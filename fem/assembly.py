@@ -214,18 +214,39 @@ def combine(
     ``coef[r] = (ρ_r, _)`` in kg/m³ (call :func:`assemble_mass` first).
     """
     data = np.zeros(pattern.nnz)
-    eye = np.eye(3)
     for name, rm in regions.items():
-        a, b = coef[name]
-        if part == "stiffness":
-            blocks = a * rm.lam + b * rm.mu
-        else:
-            if rm.mass is None:
-                raise ValueError("mass not assembled: call fem.assembly.assemble_mass first")
-            blocks = a * rm.mass[:, None, None] * eye
-        # positions of the region's entries, gathered once: within a region they are
-        # distinct, and pairs on a region boundary accumulate across regions
-        if rm.positions is None:
-            object.__setattr__(rm, "positions", pattern.block_pos[rm.pairs].ravel())
-        data[rm.positions] += blocks.ravel()
+        data[_positions(pattern, rm)] += _blocks(rm, coef[name], part).ravel()
     return data
+
+
+def _blocks(rm: RegionMatrices, coef: tuple[float, float], part: str) -> np.ndarray:
+    """(p, 3, 3) blocks of one region's term of :func:`combine`."""
+    a, b = coef
+    if part == "stiffness":
+        return a * rm.lam + b * rm.mu
+    if rm.mass is None:
+        raise ValueError("mass not assembled: call fem.assembly.assemble_mass first")
+    return a * rm.mass[:, None, None] * np.eye(3)
+
+
+def _positions(pattern: Pattern, rm: RegionMatrices) -> np.ndarray:
+    """Positions in the pattern's data of a region's block entries, gathered once: within a
+    region they are distinct, and pairs on a region boundary accumulate across regions."""
+    if rm.positions is None:
+        object.__setattr__(rm, "positions", pattern.block_pos[rm.pairs].ravel())
+    return rm.positions
+
+
+def region_entries(
+    pattern: Pattern, rm: RegionMatrices, coef: tuple[float, float], part: str = "stiffness"
+) -> tuple[np.ndarray, np.ndarray]:
+    """One region's term of :func:`combine` as (positions in the pattern's data, ascending; values).
+
+    ``combine(pattern, {name: rm}, {name: coef}, part)`` is zero but at these positions, where it
+    holds these values.
+    """
+    order = getattr(rm, "_ascending", None)
+    if order is None:  # the positions' order, found once per region
+        order = np.argsort(_positions(pattern, rm), kind="stable")
+        object.__setattr__(rm, "_ascending", order)
+    return rm.positions[order], _blocks(rm, coef, part).ravel()[order]

@@ -44,7 +44,7 @@ from isj.design import Materials
 from isj.ear import EarMasses, EarMaterials
 from isj.kinematics import rigid_mass
 
-from ..assembly import combine, lame_unit
+from ..assembly import lame_unit, region_entries
 from .shell import ShellMaterial
 from .shell import mass_matrix as shell_mass_matrix
 
@@ -128,15 +128,13 @@ def ear_parts(
     g, d, pat = model.geometry, model.drum, model.pattern
     fixed = model.fixed_parts(em)  # {part: values on the fixed entries}, the damping's names
     n_fixed = model.n_fixed_entries
-    n_joint = 0 if model.joint is None else model.joint.pattern.nnz
 
-    def on_pattern(values, start):
-        v = np.zeros(n_fixed + n_joint)
-        v[start : start + values.size] = values
-        return _compact(pat.matrix(v))
+    def on_pattern(values):
+        at = np.flatnonzero(values)
+        return pat.part_matrix(at, values[at])
 
-    stiff = {p: on_pattern(v, 0) for p, v in fixed.items() if p != "cochlea"}
-    dashpots = {"cochlea": on_pattern(fixed["cochlea"], 0)}
+    stiff = {p: on_pattern(v) for p, v in fixed.items() if p != "cochlea"}
+    dashpots = {"cochlea": on_pattern(fixed["cochlea"])}
     mass = {}
     if ms.drum_density_kg_m3 > 0:
         drum = ShellMaterial(em.drum_e_pa, em.drum_nu, em.drum_thickness_m, ms.drum_density_kg_m3)
@@ -168,14 +166,12 @@ def ear_parts(
         j = model.joint
         lam, mu = lame_unit(materials.nu)
         j.mass_data(materials)  # assembles the regions' unit masses once
-        for r in j.regions:
-            zero = dict.fromkeys(j.regions, (0.0, 0.0))
-            ks = combine(
-                j.pattern, j.regions, zero | {r: (materials.youngs(r) * lam, materials.youngs(r) * mu)}
-            )
-            mr = combine(j.pattern, j.regions, zero | {r: (materials.density(r), 0.0)}, part="mass")
-            stiff[r] = on_pattern(ks, n_fixed)
-            mass[r] = on_pattern(mr, n_fixed)
+        for r, rm in j.regions.items():
+            # region r alone: its entries of combine(), without the zeros of the other regions
+            at, ks = region_entries(j.pattern, rm, (materials.youngs(r) * lam, materials.youngs(r) * mu))
+            stiff[r] = pat.part_matrix(n_fixed + at, ks)
+            at, mr = region_entries(j.pattern, rm, (materials.density(r), 0.0), part="mass")
+            mass[r] = pat.part_matrix(n_fixed + at, mr)
     parts = EarParts(stiff, mass, dashpots, np.asarray(model.load_reduced, float), float(g.footplate_area_m2))
     K = model.stiffness(materials, em)
     err = abs(parts.total_stiffness() - K).max()
