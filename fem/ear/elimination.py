@@ -158,17 +158,22 @@ class ReducedPattern:
         data = self.map @ np.asarray(values, dtype=float)
         return sp.csr_matrix((data, self.indices, self.indptr), shape=(self.n, self.n))
 
-    def part_matrix(self, entries, values) -> sp.csr_matrix:
+    def columns(self) -> sp.csc_matrix:
+        """The map values → data by columns (CSC), for :meth:`part_matrix`: made anew at each call
+        (the size of the map; a caller making several parts keeps it for them, then drops it)."""
+        return self.map.tocsc()
+
+    def part_matrix(self, entries, values, columns: sp.csc_matrix | None = None) -> sp.csr_matrix:
         """Tᵀ K T for K with ``values`` at the entries ``entries`` (ascending) and zeros elsewhere,
         without stored zeros: :meth:`matrix` of the full vector with its zeros eliminated, the same
         numbers (each sum adds the same terms in the same order, less the zero ones).
 
-        For a part that touches few of K's entries (one region of the joint, one spring set).
+        For a part that touches few of K's entries (one region of the joint, one spring set);
+        ``columns``: :meth:`columns`, when the caller has it.
         """
-        if getattr(self, "_map_columns", None) is None:
-            self._map_columns = self.map.tocsc()  # once: a part's columns are then a cheap slice
+        columns = self.columns() if columns is None else columns
         entries = np.asarray(entries, dtype=np.int64)
-        data = self._map_columns[:, entries] @ np.asarray(values, dtype=float)
+        data = columns[:, entries] @ np.asarray(values, dtype=float)
         keep = np.flatnonzero(data)
         indptr = np.searchsorted(keep, self.indptr)
         return sp.csr_matrix((data[keep], self.indices[keep], indptr), shape=(self.n, self.n))
