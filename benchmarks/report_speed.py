@@ -9,7 +9,7 @@ user would, and prints each run's wall time, peak memory and each step's share:
 
 Usage::
 
-    python benchmarks/report_speed.py [--config CASE.toml] [--site DIR] [--json OUT.json]
+    python benchmarks/report_speed.py [--config CASE.toml] [--site DIR] [--json OUT.json] [--keep DIR]
 
 ``--site`` puts another isj tree first on ``PYTHONPATH`` (an ``isj`` package folder
 with ``fem``, ``lumped``, ... inside, as ``scripts/report_diff.py``'s notes describe),
@@ -22,6 +22,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -113,6 +114,7 @@ def main(argv=None) -> int:
     parser.add_argument("--config", type=Path, help="a case file (default: built-in defaults)")
     parser.add_argument("--site", type=Path, help="an isj tree to put first on PYTHONPATH")
     parser.add_argument("--json", type=Path, help="write the three results here")
+    parser.add_argument("--keep", type=Path, help="copy the cold report's folder here (to compare outputs)")
     args = parser.parse_args(argv)
 
     with tempfile.TemporaryDirectory(prefix="isj-report-speed-") as tmp:
@@ -129,6 +131,8 @@ def main(argv=None) -> int:
             _run("warm", base, env, tmp / "cold"),
             _run(f"changed ({CHANGE})", [*base, "--set", CHANGE], env, tmp / "changed"),
         ]
+        if args.keep:
+            shutil.copytree(tmp / "cold", args.keep, dirs_exist_ok=True)
     for result in results:
         _print(result)
     if args.json:
