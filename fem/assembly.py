@@ -240,13 +240,9 @@ def _positions(pattern: Pattern, rm: RegionMatrices) -> np.ndarray:
 def region_entries(
     pattern: Pattern, rm: RegionMatrices, coef: tuple[float, float], part: str = "stiffness"
 ) -> tuple[np.ndarray, np.ndarray]:
-    """One region's term of :func:`combine` as (positions in the pattern's data, ascending; values).
+    """One region's term of :func:`combine` as (positions in the pattern's data, distinct; values).
 
     ``combine(pattern, {name: rm}, {name: coef}, part)`` is zero but at these positions, where it
     holds these values.
     """
-    order = getattr(rm, "_ascending", None)
-    if order is None:  # the positions' order, found once per region
-        order = np.argsort(_positions(pattern, rm), kind="stable")
-        object.__setattr__(rm, "_ascending", order)
-    return rm.positions[order], _blocks(rm, coef, part).ravel()[order]
+    return _positions(pattern, rm), _blocks(rm, coef, part).ravel()

@@ -158,22 +158,15 @@ class ReducedPattern:
         data = self.map @ np.asarray(values, dtype=float)
         return sp.csr_matrix((data, self.indices, self.indptr), shape=(self.n, self.n))
 
-    def columns(self) -> sp.csc_matrix:
-        """The map values → data by columns (CSC), for :meth:`part_matrix`: made anew at each call
-        (the size of the map; a caller making several parts keeps it for them, then drops it)."""
-        return self.map.tocsc()
+    def part_matrix(self, entries, values) -> sp.csr_matrix:
+        """Tᵀ K T for K with ``values`` at the entries ``entries`` and zeros elsewhere, without
+        stored zeros: :meth:`matrix` with its zeros eliminated, the same numbers, and no copy.
 
-    def part_matrix(self, entries, values, columns: sp.csc_matrix | None = None) -> sp.csr_matrix:
-        """Tᵀ K T for K with ``values`` at the entries ``entries`` (ascending) and zeros elsewhere,
-        without stored zeros: :meth:`matrix` of the full vector with its zeros eliminated, the same
-        numbers (each sum adds the same terms in the same order, less the zero ones).
-
-        For a part that touches few of K's entries (one region of the joint, one spring set);
-        ``columns``: :meth:`columns`, when the caller has it.
+        For a part that touches few of K's entries (one region of the joint, one spring set).
         """
-        columns = self.columns() if columns is None else columns
-        entries = np.asarray(entries, dtype=np.int64)
-        data = columns[:, entries] @ np.asarray(values, dtype=float)
+        full = np.zeros(self.n_entries)
+        full[entries] = values
+        data = self.map @ full
         keep = np.flatnonzero(data)
         indptr = np.searchsorted(keep, self.indptr)
         return sp.csr_matrix((data[keep], self.indices[keep], indptr), shape=(self.n, self.n))

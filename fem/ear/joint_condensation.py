@@ -129,11 +129,9 @@ def ear_parts(
     fixed = model.fixed_parts(em)  # {part: values on the fixed entries}, the damping's names
     n_fixed = model.n_fixed_entries
 
-    columns = pat.columns()  # for every part below (the size of the map), dropped on return
-
     def on_pattern(values):
         at = np.flatnonzero(values)
-        return pat.part_matrix(at, values[at], columns)
+        return pat.part_matrix(at, values[at])
 
     stiff = {p: on_pattern(v) for p, v in fixed.items() if p != "cochlea"}
     dashpots = {"cochlea": on_pattern(fixed["cochlea"])}
@@ -171,9 +169,9 @@ def ear_parts(
         for r, rm in j.regions.items():
             # region r alone: its entries of combine(), without the zeros of the other regions
             at, ks = region_entries(j.pattern, rm, (materials.youngs(r) * lam, materials.youngs(r) * mu))
-            stiff[r] = pat.part_matrix(n_fixed + at, ks, columns)
+            stiff[r] = pat.part_matrix(n_fixed + at, ks)
             at, mr = region_entries(j.pattern, rm, (materials.density(r), 0.0), part="mass")
-            mass[r] = pat.part_matrix(n_fixed + at, mr, columns)
+            mass[r] = pat.part_matrix(n_fixed + at, mr)
     parts = EarParts(stiff, mass, dashpots, np.asarray(model.load_reduced, float), float(g.footplate_area_m2))
     K = model.stiffness(materials, em)
     err = abs(parts.total_stiffness() - K).max()
