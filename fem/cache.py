@@ -25,6 +25,7 @@ import json
 import os
 import warnings
 from collections.abc import Callable
+from concurrent.futures import Future
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -121,6 +122,29 @@ def load_mesh(path: Path) -> TetMesh:
     return mesh
 
 
+def mesh_path(directory: Path, kind: str, geometry: Geometry, sizes: MeshSizes) -> Path:
+    """The cache entry of the mesh for (kind, geometry, sizes) in ``directory``."""
+    return directory / f"{kind}-{cache_key(kind, geometry, sizes)[:32]}.npz"
+
+
+#: Meshes a second process is making for this one (:func:`fem.mesh_ahead.meshes_ahead`): the
+#: entry's path → the future of its making.
+MESHES_AHEAD: dict[Path, Future] = {}
+
+
+def _wait_for_mesh_ahead(path: Path) -> None:
+    """Wait for the second process's mesh at ``path``, if it is making one; if it failed, this
+    process makes the mesh itself (the entry is then missing)."""
+    future = MESHES_AHEAD.pop(path, None)
+    if future is None:
+        return
+    try:
+        future.result()
+    except Exception as exc:  # a broken or cancelled worker: meshed here instead, nothing lost
+        reason = f"{type(exc).__name__}: {exc}"
+        warnings.warn(f"meshing ahead failed ({reason}); meshing here", CacheWarning, stacklevel=4)
+
+
 def cached_mesh(
     kind: str,
     geometry: Geometry,
@@ -136,7 +160,8 @@ def cached_mesh(
     directory = resolve_cache_dir(cache_dir)
     if directory is None:
         return compute()
-    path = directory / f"{kind}-{cache_key(kind, geometry, sizes)[:32]}.npz"
+    path = mesh_path(directory, kind, geometry, sizes)
+    _wait_for_mesh_ahead(path)
     if path.exists():
         try:
             return load_mesh(path)

@@ -44,6 +44,7 @@ def geometry_trends_step(ctx) -> tuple[dict, dict]:
     from isj.calibration.checks import lumped_static
     from isj.calibration.runner import run_geometry_designs
     from isj.fem.batch import evaluate_design, transient_models
+    from isj.fem.mesh_ahead import meshes_ahead
 
     cfg = ctx.config
     t = cfg.geometry_trends
@@ -65,7 +66,9 @@ def geometry_trends_step(ctx) -> tuple[dict, dict]:
     # the report's geometry last
     items = [(base, {dim: v}) for dim, *_, x0, _, _, xf in plan for v in xf if v != x0]
     items.append((base, {}))
-    with transient_models():  # the other geometries' models are not needed again: one at a time
+    # a second process meshes the next geometries while this one solves (fem.mesh_ahead)
+    ahead = [dataclasses.replace(geom, **dims) for _, dims in items]
+    with transient_models(), meshes_ahead(ahead, cfg.mesh.resolution):
         records = run_geometry_designs(
             items, evaluate_design, ctx.settings, ctx.fe_cache_dir, max_workers=0, progress=ctx.progress
         )
