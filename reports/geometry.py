@@ -39,6 +39,34 @@ def _slope(x0: float, y0: float, x1: float, y1: float) -> float:
     return float(np.log(y1 / y0) / np.log(x1 / x0))
 
 
+def _trend_points(ctx, cal) -> list[tuple]:
+    """Per trend of :data:`GEOMETRY_TRENDS`: (dimension, output, law, the report's value x0, the
+    domain's lo and hi, the FE points' values, ascending, x0 among them), all in m."""
+    t, geom = ctx.config.geometry_trends, ctx.config.geometry
+    plan = []
+    for dim, output, law in GEOMETRY_TRENDS:
+        x0 = float(getattr(geom, dim))
+        lo, hi = (float(v) for v in cal.geometry_domain[dim])
+        lo, hi = min(lo, x0), max(hi, x0)
+        # the report's own value among the FE points: the reference law goes through it
+        xf = sorted({x0, *(float(v) for v in np.geomspace(lo, hi, t.fe_points))} if t.fe_points else {x0})
+        plan.append((dim, output, law, x0, lo, hi, xf))
+    return plan
+
+
+def _new_geometries(plan) -> list[dict]:
+    """The FE points' dimensions other than the report's own, in the order they are solved."""
+    return [{dim: v} for dim, *_, x0, _, _, xf in plan for v in xf if v != x0]
+
+
+def geometry_trend_geometries(ctx) -> list:
+    """The geometries the geometry trends step meshes besides the report's own, in its order
+    (for :func:`isj.fem.mesh_ahead.meshes_ahead`)."""
+    cal, _ = geometry_lumped_calibration(ctx)
+    geom = ctx.config.geometry
+    return [dataclasses.replace(geom, **dims) for dims in _new_geometries(_trend_points(ctx, cal))]
+
+
 def geometry_trends_step(ctx) -> tuple[dict, dict]:
     """β against the pedicle's thickness and α against the gap's: FE points, lumped curves, slopes."""
     from isj.calibration.checks import lumped_static
@@ -50,23 +78,18 @@ def geometry_trends_step(ctx) -> tuple[dict, dict]:
     t = cfg.geometry_trends
     cal, cal_name = geometry_lumped_calibration(ctx)
     base, geom, p = ctx.base_design(), cfg.geometry, cfg.design.pressure_pa
-    out, arrays, plan = {}, {}, []
-    for dim, output, law in GEOMETRY_TRENDS:
-        x0 = float(getattr(geom, dim))
-        lo, hi = (float(v) for v in cal.geometry_domain[dim])
-        lo, hi = min(lo, x0), max(hi, x0)
+    out, arrays = {}, {}
+    plan = _trend_points(ctx, cal)
+    for dim, _, _, _, lo, hi, _ in plan:
         x = np.geomspace(lo, hi, t.n_lumped)
         lum = [lumped_static(cal, [base], dataclasses.replace(geom, **{dim: float(v)}), p) for v in x]
         arrays[f"{dim}_x_m"] = x
         arrays[f"{dim}_alpha_rad"] = np.array([r.alpha_rad[0] for r in lum])
         arrays[f"{dim}_beta_rad"] = np.array([r.beta_rad[0] for r in lum])
-        # the report's own value among the FE points: the reference law goes through it
-        xf = sorted({x0, *(float(v) for v in np.geomspace(lo, hi, t.fe_points))} if t.fe_points else {x0})
-        plan.append((dim, output, law, x0, lo, hi, xf))
     # the report's geometry last
-    items = [(base, {dim: v}) for dim, *_, x0, _, _, xf in plan for v in xf if v != x0]
-    items.append((base, {}))
-    # a second process meshes the next geometries while this one solves (fem.mesh_ahead)
+    items = [(base, dims) for dims in _new_geometries(plan)] + [(base, {})]
+    # a second process meshes the next geometries while this one solves (fem.mesh_ahead; the
+    # report's runner has usually made them ahead already, during the steps before)
     ahead = [dataclasses.replace(geom, **dims) for _, dims in items]
     with transient_models(), meshes_ahead(ahead, cfg.mesh.resolution):
         records = run_geometry_designs(

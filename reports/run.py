@@ -177,33 +177,47 @@ def _memory_gb() -> float | None:
 def _compute_steps(ctx: Context, store: StepStore, out: Path, say) -> dict:
     """Each step from the step cache or computed and stored, its data files written into ``out``:
     results, arrays, keys, timings, the cached steps and the memory after each step."""
-    from . import csvdata
+    from isj.fem.mesh_ahead import meshes_ahead
+
+    from .geometry import geometry_trend_geometries
 
     run = {"results": {}, "arrays": {}, "timings": {}, "cached": [], "keys": {}, "peak": {}, "held": {}}
-    for i, (name, fn, sections) in enumerate(STEPS, 1):
-        key = run["keys"][name] = step_key(name, step_inputs(ctx, sections, fn))
-        t0 = time.perf_counter()
-        hit = store.get(name, key)
-        if hit is None:
-            say(f"[{i}/{len(STEPS)}] {name} ...")
-            res, arr = fn(ctx)
-            store.put(name, key, res, arr)
-            # as the cache gives it back (sorted keys, JSON floats): a fresh run and a cached
-            # one then lay out the same PDF, byte for byte
-            res = json.loads(json.dumps(res, sort_keys=True))
-        else:
-            res, arr = hit
-            run["cached"].append(name)
-        seconds = run["timings"][name] = time.perf_counter() - t0
-        run["peak"][name] = _peak_memory_gb()
-        run["held"][name] = _memory_gb()
-        say(f"[{i}/{len(STEPS)}] {name}: {'cached' if hit else 'done'} ({seconds:.1f} s)", 1 if hit else 2)
-        say(f"        key {key}", 2)
-        run["results"][name], run["arrays"][name] = res, arr
-        atomic_write_json(out / "data" / f"{name}.json", res)
-        for fname, text in csvdata.tables(name, res, arr).items():
-            atomic_write_text(out / "data" / fname, text)
+    # the geometry trends' new meshes (gmsh, one thread) are made by a second process while the
+    # steps before them solve; none is started when the mesh cache holds them all
+    with meshes_ahead(geometry_trend_geometries(ctx), ctx.config.mesh.resolution):
+        for i, step in enumerate(STEPS, 1):
+            _compute_step(ctx, store, out, say, run, i, step)
     return run
+
+
+def _compute_step(ctx: Context, store: StepStore, out: Path, say, run: dict, i: int, step: tuple) -> None:
+    """Step ``i`` of :data:`STEPS`, ``step`` = (name, function, sections), from the step cache or
+    computed and stored, into ``run`` and its data files into ``out``."""
+    from . import csvdata
+
+    name, fn, sections = step
+    key = run["keys"][name] = step_key(name, step_inputs(ctx, sections, fn))
+    t0 = time.perf_counter()
+    hit = store.get(name, key)
+    if hit is None:
+        say(f"[{i}/{len(STEPS)}] {name} ...")
+        res, arr = fn(ctx)
+        store.put(name, key, res, arr)
+        # as the cache gives it back (sorted keys, JSON floats): a fresh run and a cached
+        # one then lay out the same PDF, byte for byte
+        res = json.loads(json.dumps(res, sort_keys=True))
+    else:
+        res, arr = hit
+        run["cached"].append(name)
+    seconds = run["timings"][name] = time.perf_counter() - t0
+    run["peak"][name] = _peak_memory_gb()
+    run["held"][name] = _memory_gb()
+    say(f"[{i}/{len(STEPS)}] {name}: {'cached' if hit else 'done'} ({seconds:.1f} s)", 1 if hit else 2)
+    say(f"        key {key}", 2)
+    run["results"][name], run["arrays"][name] = res, arr
+    atomic_write_json(out / "data" / f"{name}.json", res)
+    for fname, text in csvdata.tables(name, res, arr).items():
+        atomic_write_text(out / "data" / fname, text)
 
 
 def _write_pdf(config: ReportConfig, run: dict, provenance: dict, final: Path, out: Path, say) -> dict:
