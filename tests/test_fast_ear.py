@@ -109,6 +109,23 @@ def test_batch_is_the_frequency_response(fast):
     assert np.allclose(fast.batch(FREQ_HZ, e)["h_v"], b["h_v"][:1], rtol=1e-12, atol=0)
 
 
+def test_batch_blocks_on_threads_give_the_bits_of_one_thread(fast, monkeypatch):
+    """The batch's blocks of designs run on as many threads as the solver may use; each block's
+    numbers are the same whichever thread computed it (a batch of two blocks)."""
+    import isj.fem.ear.fast_ear as fe
+
+    monkeypatch.setattr(fe, "BLOCK", 2)
+    designs = [DESIGNS[k] for k in ("random0", "base", "random1")] + [Materials(gap_e_pa=3e6)]
+    monkeypatch.setenv("ISJ_SOLVER_THREADS", "1")
+    one = fast.batch(FREQ_HZ, designs)["h_v"]
+    monkeypatch.setenv("ISJ_SOLVER_THREADS", "3")
+    three = fast.batch(FREQ_HZ, designs)["h_v"]
+    assert one.tobytes() == three.tobytes()
+    for i, m in enumerate(designs):  # and each design is its own response
+        r = fast.frequency_response(FREQ_HZ, m)["stapes_velocity_m_s"]
+        np.testing.assert_allclose(three[i], r, rtol=1e-10, atol=0)
+
+
 def test_static_response_is_exact_at_a_snapshot_design(fast, ear):
     """Ψ(E) of a snapshot design is in the basis and the rest is condensed exactly: statics to round-off."""
     direct = ear.static(Materials())

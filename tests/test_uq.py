@@ -582,6 +582,7 @@ def test_report_uq_step_reads_no_design_key_but_the_pressure(tmp_path, monkeypat
     every other [design] key changed at once leaves its result as it was, the pressure does not."""
     import isj.fem.batch
     import isj.fem.ear.fast_ear
+    import isj.fem.ear.shared
     from isj.lumped.artifact import default_calibration
     from isj.reports.config import load_config
     from isj.reports.steps import Context

@@ -46,6 +46,7 @@ import hashlib
 import json
 import time
 import warnings
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -60,6 +61,7 @@ from isj.errors import CacheWarning, InvalidParameter
 from isj.responses import delta_columns
 from isj.validate import check_frequencies
 
+from ..solvers import solver_threads
 from .constraints import rigid_body_modes
 from .joint_condensation import (
     CondensedEar,
@@ -576,14 +578,21 @@ class FastEar:
         w = 2 * np.pi * freqs
         hv = np.empty((theta.shape[0], freqs.size), complex)
         intact = check_cavities(cavities) != "open"
-        with one_blas_thread():
-            for i in range(0, theta.shape[0], BLOCK):
-                jt = self.joint(theta[i : i + BLOCK], damping, order)
-                x = self._solve(rest, jt, w)
-                hv[i : i + BLOCK] = 1j * w * (off[None] + np.einsum("fj,dfj->df", rows, x))
-                if intact:  # the pressure acts on the drum only: the volume has no part on z
-                    vol = rest["o0"][None, :, 11] + np.einsum("fj,dfj->df", rest["ob"][:, 11], x)
-                    hv[i : i + BLOCK] *= cavity_factor(freqs, vol, cavities)
+
+        def block(i: int) -> None:  # designs i to i + BLOCK: the same arithmetic on any thread
+            jt = self.joint(theta[i : i + BLOCK], damping, order)
+            x = self._solve(rest, jt, w)
+            hv[i : i + BLOCK] = 1j * w * (off[None] + np.einsum("fj,dfj->df", rows, x))
+            if intact:  # the pressure acts on the drum only: the volume has no part on z
+                vol = rest["o0"][None, :, 11] + np.einsum("fj,dfj->df", rest["ob"][:, 11], x)
+                hv[i : i + BLOCK] *= cavity_factor(freqs, vol, cavities)
+
+        # blocks on every core, each with one BLAS thread (numpy lets go of the GIL in its solves
+        # and products): a block's numbers do not depend on which thread or how many computed it
+        starts = range(0, theta.shape[0], BLOCK)
+        with one_blas_thread(), ThreadPoolExecutor(min(solver_threads(), len(starts) or 1)) as pool:
+            for done in pool.map(block, starts):
+                del done
         hr = self.rigid(freqs, damping, cavities)
         d = hv / hr[None]
         return {

@@ -33,6 +33,7 @@ on the coarse test ear to about 1e-4 in α and β (the measurements: docs/histor
 from __future__ import annotations
 
 import contextlib
+import functools
 import time
 from dataclasses import dataclass, field
 
@@ -425,7 +426,9 @@ def one_blas_thread():
         lib.scipy_openblas_set_num_threads64_(before)
 
 
+@functools.cache
 def _openblas():
+    """numpy's OpenBLAS (found once: reading /proc/self/maps at each call cost 2.5 ms)."""
     import ctypes
 
     try:
