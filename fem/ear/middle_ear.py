@@ -388,16 +388,16 @@ class MiddleEarModel:
     ) -> EarStaticResult:
         """Static response per Pa of uniform ear-canal pressure (pushing the drum medially).
 
+        The model keeps its last :data:`STATIC_MEMO` results: the same materials again return
+        the same result (its displacement read-only), as a new solve would bit for bit, without
+        the factorization. The report's ear step and the transmission step's direct checks
+        (:func:`fem.ear.dynamics.harmonic` takes the umbo's direction from this result) ask for
+        the same designs.
+
         Parameters
         ----------
         materials : moduli of the embedded joint model (ignored by the rigid-joint variant)
         ear_materials : eardrum, footplate and spring constants (default: docs/ear.md §5.8)
-
-        The model keeps its last :data:`STATIC_MEMO` results: the same materials again return
-        the same result (its displacement read-only), as a new solve would bit for bit, without
-        the factorization. The report's ear step and the transmission step's direct checks
-        (:func:`fem.ear.dynamics.harmonic`, which takes the umbo's direction from it) ask for
-        the same designs.
         """
         materials = materials or Materials()
         ear_materials = ear_materials or EarMaterials()
