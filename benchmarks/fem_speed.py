@@ -262,6 +262,7 @@ def main(argv=None):
     ap.add_argument("--skip-skfem", action="store_true")
     ap.add_argument("--against", type=Path, metavar="BASE", help="a checkout of older code to compare with")
     ap.add_argument("--repeat", type=int, default=3, help="rounds with --against (default 3)")
+    ap.add_argument("--json", type=Path, default=OUT, help=f"where --against writes (default {OUT.name})")
     args = ap.parse_args(argv)
     if args.against is not None:
         with tempfile.TemporaryDirectory() as tmp:
@@ -269,8 +270,8 @@ def main(argv=None):
         result["base_commit"] = subprocess.run(
             ["git", "-C", str(args.against), "rev-parse", "HEAD"], capture_output=True, text=True
         ).stdout.strip()
-        OUT.write_text(json.dumps(result, indent=2, sort_keys=True) + "\n")
-        print(f"wrote {OUT}")
+        args.json.write_text(json.dumps(result, indent=2, sort_keys=True) + "\n")
+        print(f"wrote {args.json}")
         worst = max(f["alpha_beta_max_rel_diff"] for f in result["figures"].values())
         if worst > 1e-12:  # faster, but not the same answers: a failure, not a figure
             sys.exit(f"alpha, beta differ from the base's by {worst:.1e} (relative) > 1e-12")
