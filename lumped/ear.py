@@ -407,7 +407,14 @@ def ear_model(
     M = sum(masses_by_part.values())  # (nd, n, n)
     Bq, C, d_umbo = _load_and_outputs(frame, g, drum, mode_terms[2], K)
     arrays = [K, M, E_visc, K_loss, np.broadcast_to(Bq, (frame.nd, frame.n, 1)).copy(), C, d_umbo]
-    if coupling is None or all(np.ndim(v) == 0 for v in moduli.values()):  # one design
+    one_design = coupling is None or all(np.ndim(v) == 0 for v in moduli.values())
+    return _lumped_ear(frame, arrays, joint_terms, one_design)
+
+
+def _lumped_ear(frame, arrays: list, joint_terms, one_design: bool) -> LumpedEar:
+    """The :class:`LumpedEar` of the stacked (K, M, E, K_loss, B, C, umbo direction); with
+    ``one_design`` the design axis dropped."""
+    if one_design:
         arrays = [a[0] for a in arrays]
         if joint_terms is not None:
             joint_terms = tuple(np.broadcast_to(t, (frame.nd, 2, 2))[0] for t in joint_terms)
