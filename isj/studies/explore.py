@@ -262,11 +262,7 @@ def explore(
             pressure_pa=pressure,
             geometry=geometry,
         )
-        pairs = worst_picks(guard, spot_checks)
-        fe_designs = [guard.sets[name].design(i) for name, i in pairs]
-    else:
-        pairs = [("explored", i) for i in spot_check_picks(designs, spot_checks, seed)]
-        fe_designs = [{k: float(v[i]) for k, v in designs.items()} for _, i in pairs]
+    pairs, fe_designs = _spot_checks(guard, designs, spot_checks, seed)
     if pairs:
         warn_fe_settings(calibration, settings.get("order"), settings.get("resolution"))
     checks = compare_static(calibration, fe_designs, evaluate, settings, cache_dir, progress=progress)
@@ -283,6 +279,16 @@ def explore(
         confirmations=confirmed,
         in_region=in_region(region_of(calibration), calibration.domain, designs),
     )
+
+
+def _spot_checks(guard, designs: Mapping[str, np.ndarray], spot_checks: int, seed: int):
+    """(set name, index) of each spot check and its design: the guard's worst certified lumped
+    errors with a guard, else :func:`spot_check_picks` of ``designs``."""
+    if guard is not None:
+        pairs = worst_picks(guard, spot_checks)
+        return pairs, [guard.sets[name].design(i) for name, i in pairs]
+    pairs = [("explored", i) for i in spot_check_picks(designs, spot_checks, seed)]
+    return pairs, [{k: float(v[i]) for k, v in designs.items()} for _, i in pairs]
 
 
 @dataclass(frozen=True)
