@@ -182,10 +182,7 @@ class MiddleEarModel:
         self.off_drum = 0
         self.off_fp = NDOF * nd
         self.off_joint = self.off_fp + NDOF * nf
-        nj = 0
-        if joint is not None:
-            zt = joint.geometry.z_top
-            nj = joint.space.n_nodes
+        nj = 0 if joint is None else joint.space.n_nodes
         self.off_body = self.off_joint + 3 * nj
         self.off_stapes = self.off_body + 6 if joint is not None else self.off_body
         self.n_full = self.off_stapes + 6 if joint is not None else self.off_body + 6
@@ -194,39 +191,7 @@ class MiddleEarModel:
         x_body = np.asarray(g.body_reference_m)
         x_stapes = np.asarray(g.stapes_head_m) if joint is not None else x_body
 
-        cb = ConstraintBuilder(self.n_full)
-        ring = self.drum.node_sets["ring"]
-        cb.clamp(_node_block_dofs(ring, NDOF, self.off_drum))
-        manu = np.unique(self.drum.node_sets["manubrium"])
-        cb.tie(
-            _node_block_dofs(manu, NDOF, self.off_drum),
-            self.body_dofs,
-            rigid_body_modes(self.drum.nodes_m[manu], x_body),
-        )
-        crura = np.unique(self.footplate.node_sets["crura"])
-        cb.tie(
-            _node_block_dofs(crura, NDOF, self.off_fp),
-            self.stapes_dofs,
-            rigid_body_modes(self.footplate.nodes_m[crura], x_stapes),
-        )
-        if joint is not None:
-            R = joint_frame(g)
-            pts = joint.space.points
-            self.joint_points_m = np.asarray(g.stapes_head_m) + pts @ R.T
-            self.incus_face = np.flatnonzero(np.abs(pts[:, 2] - joint.geometry.z_top) <= 1e-9 * zt)
-            self.stapes_face = joint.space.face_nodes("clamped")
-            for nodes, master, x_m in (
-                (self.incus_face, self.body_dofs, x_body),
-                (self.stapes_face, self.stapes_dofs, x_stapes),
-            ):
-                coef = np.einsum("ji,pjk->pik", R, point_map(self.joint_points_m[nodes], x_m))  # Rᵀ G
-                cb.tie(_node_block_dofs(nodes, 3, self.off_joint), master, coef.reshape(-1, 6))
-            if getattr(joint, "joint", "bonded") == "sliding":  # docs/model.md §2.12: the cut gap–plate
-                # the face keeps u_z (the joint's z) continuous
-                gap, plate = tied_nodes(joint.space, joint.geometry)
-                for gn, pn in zip(gap, plate, strict=True):
-                    cb.tie([self.off_joint + 3 * gn + 2], [self.off_joint + 3 * pn + 2], [[1.0]])
-        self.T, self.free = cb.build()
+        self.T, self.free = self._constraints(x_body, x_stapes)
 
         rows, cols = self._fixed_entries()
         self.n_fixed_entries = rows.size
@@ -242,6 +207,50 @@ class MiddleEarModel:
         self.load_reduced = self.T.T @ f
         t2 = time.perf_counter()
         self.timings_s = {"setup": t1 - t0, "reduced_pattern": t2 - t1}
+
+    def _constraints(self, x_body, x_stapes) -> tuple[sp.csr_matrix, np.ndarray]:
+        """(T, free): the drum clamped at its ring, its manubrium and the footplate's crura tied to
+        the two rigid bodies (reference points ``x_body``, ``x_stapes``, m), and the joint's faces
+        (:meth:`_tie_joint`)."""
+        cb = ConstraintBuilder(self.n_full)
+        ring = self.drum.node_sets["ring"]
+        cb.clamp(_node_block_dofs(ring, NDOF, self.off_drum))
+        manu = np.unique(self.drum.node_sets["manubrium"])
+        cb.tie(
+            _node_block_dofs(manu, NDOF, self.off_drum),
+            self.body_dofs,
+            rigid_body_modes(self.drum.nodes_m[manu], x_body),
+        )
+        crura = np.unique(self.footplate.node_sets["crura"])
+        cb.tie(
+            _node_block_dofs(crura, NDOF, self.off_fp),
+            self.stapes_dofs,
+            rigid_body_modes(self.footplate.nodes_m[crura], x_stapes),
+        )
+        if self.joint is not None:
+            self._tie_joint(cb, x_body, x_stapes)
+        return cb.build()
+
+    def _tie_joint(self, cb: ConstraintBuilder, x_body, x_stapes) -> None:
+        """The joint model's incus face to the malleus–incus body, its stapes face to the stapes,
+        and with the sliding joint its cut gap–plate face in the joint's z (docs/model.md §2.12)."""
+        joint, g = self.joint, self.geometry
+        R = joint_frame(g)
+        pts = joint.space.points
+        zt = joint.geometry.z_top
+        self.joint_points_m = np.asarray(g.stapes_head_m) + pts @ R.T
+        self.incus_face = np.flatnonzero(np.abs(pts[:, 2] - zt) <= 1e-9 * zt)
+        self.stapes_face = joint.space.face_nodes("clamped")
+        for nodes, master, x_m in (
+            (self.incus_face, self.body_dofs, x_body),
+            (self.stapes_face, self.stapes_dofs, x_stapes),
+        ):
+            coef = np.einsum("ji,pjk->pik", R, point_map(self.joint_points_m[nodes], x_m))  # Rᵀ G
+            cb.tie(_node_block_dofs(nodes, 3, self.off_joint), master, coef.reshape(-1, 6))
+        if getattr(joint, "joint", "bonded") == "sliding":  # the face keeps u_z (the joint's z) continuous
+            gap, plate = tied_nodes(joint.space, joint.geometry)
+            for gn, pn in zip(gap, plate, strict=True):
+                cb.tie([self.off_joint + 3 * gn + 2], [self.off_joint + 3 * pn + 2], [[1.0]])
 
     # ------------------------------------------------------------------ assembly
 
