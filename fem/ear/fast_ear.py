@@ -591,8 +591,7 @@ class FastEar:
         # and products): a block's numbers do not depend on which thread or how many computed it
         starts = range(0, theta.shape[0], BLOCK)
         with one_blas_thread(), ThreadPoolExecutor(min(solver_threads(), len(starts) or 1)) as pool:
-            for done in pool.map(block, starts):
-                del done
+            list(pool.map(block, starts))  # each block fills its rows of hv; an error is raised here
         hr = self.rigid(freqs, damping, cavities)
         d = hv / hr[None]
         return {
