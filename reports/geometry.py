@@ -87,10 +87,11 @@ def geometry_trends_step(ctx) -> tuple[dict, dict]:
         arrays[f"{dim}_alpha_rad"] = np.array([r.alpha_rad[0] for r in lum])
         arrays[f"{dim}_beta_rad"] = np.array([r.beta_rad[0] for r in lum])
     # the report's geometry last
-    items = [(base, dims) for dims in _new_geometries(plan)] + [(base, {})]
+    new = _new_geometries(plan)
+    items = [(base, dims) for dims in new] + [(base, {})]
     # a second process meshes the next geometries while this one solves (fem.mesh_ahead; the
     # report's runner has usually made them ahead already, during the steps before)
-    ahead = [dataclasses.replace(geom, **dims) for _, dims in items]
+    ahead = [dataclasses.replace(geom, **dims) for dims in new]
     with transient_models(), meshes_ahead(ahead, cfg.mesh.resolution):
         records = run_geometry_designs(
             items, evaluate_design, ctx.settings, ctx.fe_cache_dir, max_workers=0, progress=ctx.progress
