@@ -121,3 +121,19 @@ def test_the_shipped_default_surrogate_bounds_hold_against_fe(empty_cache):
                 f"design {i} {k}: |FE − surrogate| {err:.3g} above its bound {ev[kb][i]:.3g}"
             )
             assert ev[kb][i] <= 1e-3 * abs(truth), f"design {i} {k}: bound above the 1e-3 target"
+
+
+def test_the_local_stage_is_the_same_bit_for_bit_on_one_thread_and_on_two(small_rom, monkeypatch):
+    """The sub-boxes run on the solver's threads; each box's arrays must not depend on that."""
+    from isj.fem.rom.model import DEFAULT_TOL, local_stage
+
+    arrays = {k: v for k, v in small_rom.arrays.items() if not k.startswith("box")}
+    meta = {k: v for k, v in small_rom.meta.items() if not k.startswith("local_")}
+    made = {}
+    for threads in ("1", "2"):
+        monkeypatch.setenv("ISJ_SOLVER_THREADS", threads)
+        made[threads] = local_stage(arrays, DesignSpace(), meta, tol=DEFAULT_TOL, n_validate=16, seed=0)
+    assert made["1"].arrays.keys() == made["2"].arrays.keys() == small_rom.arrays.keys()
+    for k, v in made["1"].arrays.items():
+        assert np.array_equal(made["2"].arrays[k], v), k
+    assert made["1"].meta["local_sizes"] == made["2"].meta["local_sizes"] == small_rom.meta["local_sizes"]

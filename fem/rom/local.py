@@ -96,29 +96,41 @@ def local_bases(
     """Per sub-box: the compressed online arrays and the local size (bisection on the sample).
 
     A sub-box whose sample needs the whole global basis keeps the global arrays as they are.
+    The sub-boxes are independent: they run on :func:`fem.solvers.solver_threads` threads, and a
+    sub-box's arrays do not depend on which thread computed it (each runs the same arithmetic;
+    callers hold numpy's BLAS to one thread, :func:`fem.ear.joint_condensation.one_blas_thread`).
     """
+    from concurrent.futures import ThreadPoolExecutor
+
+    from ..solvers import solver_threads
+
+    n_boxes = SPLIT ** len(space.log_lo)
+    with ThreadPoolExecutor(min(solver_threads(), n_boxes)) as pool:
+        done = list(pool.map(lambda box: _local_box(arr, space, box, tol, target, seed), range(n_boxes)))
+    return [b for b, _ in done], [size for _, size in done]
+
+
+def _local_box(arr: dict, space, box: int, tol: float, target: float, seed: int) -> tuple[dict, int]:
+    """One sub-box's compressed arrays and local size: the smallest whose sample designs all keep
+    their bound within ``target · tol`` (the global arrays and size where none does)."""
     k = int(arr["u_g"].size)
-    boxes, sizes = [], []
-    for box in range(SPLIT ** len(space.log_lo)):
-        theta = space.theta(box_sample(space, box, N_SAMPLE, seed))
-        basis = {}
-        for s in SPACES:
-            x = _solve(arr, s, theta)
-            basis[s] = np.linalg.svd(x.T, full_matrices=False)[0]  # POD directions, k × min(k, n)
-        lo, hi = 1, k  # hi: the global basis, taken as passing
-        best = None
-        while lo < hi:
-            mid = (lo + hi) // 2
-            trial = compress(arr, {s: basis[s][:, :mid] for s in SPACES})
-            if relative_bounds(trial, theta)[0].max() <= target * tol:
-                hi, best = mid, trial
-            else:
-                lo = mid + 1
-        if best is None or hi >= k:
-            best, hi = {key: arr[key] for key in _keys(arr)}, k
-        boxes.append(best)
-        sizes.append(hi)
-    return boxes, sizes
+    theta = space.theta(box_sample(space, box, N_SAMPLE, seed))
+    basis = {}
+    for s in SPACES:
+        x = _solve(arr, s, theta)
+        basis[s] = np.linalg.svd(x.T, full_matrices=False)[0]  # POD directions, k × min(k, n)
+    lo, hi = 1, k  # hi: the global basis, taken as passing
+    best = None
+    while lo < hi:
+        mid = (lo + hi) // 2
+        trial = compress(arr, {s: basis[s][:, :mid] for s in SPACES})
+        if relative_bounds(trial, theta)[0].max() <= target * tol:
+            hi, best = mid, trial
+        else:
+            lo = mid + 1
+    if best is None or hi >= k:
+        best, hi = {key: arr[key] for key in _keys(arr)}, k
+    return best, hi
 
 
 def _keys(arr: dict) -> list[str]:
