@@ -217,7 +217,8 @@ def _pardiso_defaults(ps, mtype: int) -> None:
 class PardisoSolver:
     """MKL PARDISO, real symmetric positive definite (mtype 2), analysis reused.
 
-    MKL's default settings for the matrix type, except that the fill-reducing
+    MKL's default settings for the matrix type, except iterative refinement
+    (:meth:`_configure`) and that the fill-reducing
     ordering of the analysis is returned in ``perm`` (1-based, iparm(5) = 2), so
     that another PARDISO solver for a matrix of the same pattern (the complex
     dynamic stiffness) can skip the ordering: pass it as ``perm``, and the given
@@ -254,7 +255,16 @@ class PardisoSolver:
         self.perm = self._ps.perm
 
     def _configure(self, iparm: np.ndarray) -> None:
-        """Adjust MKL's defaults (0-based ``iparm``) for this matrix type."""
+        """Adjust MKL's defaults (0-based ``iparm``) for this matrix type.
+
+        Iterative refinement only after perturbed pivots (iparm(8) = 0; MKL's default is two
+        steps after every solve). A Cholesky factorization has no perturbed pivots, and on
+        the default joint model the two steps left the relative residual where it was
+        (1.3e-11) while tripling a solve's time (0.21 → 0.07 s, docs/performance.md §8.7);
+        the solution moved by 2.5e-11 relative, below the results' honesty tolerance
+        (docs/developer/cache-keys.md §3).
+        """
+        iparm[7] = 0
 
     @property
     def upper_mask(self) -> np.ndarray:
@@ -334,16 +344,14 @@ class PardisoComplexSymmetricSolver(PardisoSolver):
 
     The n × n complex matrix's upper triangle, complex128, instead of the real
     2n × 2n block system, in less than half its time. Iterative refinement only
-    after perturbed pivots (iparm(8) = 0): PARDISO's default two steps leave the
-    residual as it is on this model and triple the solve's time (docs/history.md).
+    after perturbed pivots, as every PARDISO solver here (:meth:`PardisoSolver._configure`):
+    PARDISO's default two steps leave the residual as it is on this model and triple
+    the solve's time (docs/history.md).
     """
 
     name = "pardiso_complex_symmetric"
     mtype = 6
     dtype = np.complex128
-
-    def _configure(self, iparm: np.ndarray) -> None:
-        iparm[7] = 0
 
 
 class CholmodSolver:

@@ -58,7 +58,7 @@ VERSIONS = {
     "fe_dynamic": 1,
     "ear": 2,
     "drum_modes": 2,
-    "surrogate": 1,
+    "surrogate": 2,
     "lumped": 1,
 }
 
@@ -90,7 +90,7 @@ STEP_VERSIONS = {
     "convergence": 1,
     "calibration": 1,
     "ear": 1,
-    "transmission": 3,
+    "transmission": 4,
     "load_path": 1,
     "sliding": 1,
     "guard": 1,
