@@ -214,12 +214,15 @@ class TransmissionConfig:
     Each case in ``cases`` comes from the fast ear (:mod:`isj.fem.ear.fast_ear`, built once per mesh and
     ear and cached) where it covers the case's materials, else from its own reduced FE ear
     (:func:`isj.fem.ear.reduced_ear.reduced_ear`), beside the rigid incus–stapes connection (an FE
-    reduction). The first case is also reduced with FE to check the fast ear, and ``fe_checks`` direct
-    harmonic solves, the highest at ``fmax_hz``, check that reduction. ``cases_from``: "fast" (as above)
-    or "fe" (every case its own FE reduction, no fast ear: for one or two cases, where building the fast
-    ear costs more than it saves). ``sliding_cases`` are computed again with the sliding joint
-    (docs/model.md §2.12), as ``<case>_sliding``, from the sliding joint's own fast ear in the same
-    way. The damping is the ``[sweep]`` section's. ``cavities``:
+    reduction). The fast ear is compared with the rigid connection's FE reduction over the band, and
+    ``fe_checks`` direct harmonic solves, the highest at ``fmax_hz``, check the first case as the step
+    computed it (the fast ear's or its FE reduction's). ``fast_ear_check``: "direct" (as above) or "band"
+    (the first case also reduced with FE, the fast ear compared with it over the band, and the direct
+    solves checking that reduction: one more reduction, about 10 s on 2 cores). ``cases_from``: "fast"
+    (as above) or "fe" (every case its own FE reduction, no fast ear: for one or two cases, where
+    building the fast ear costs more than it saves). ``sliding_cases`` are computed again with the
+    sliding joint (docs/model.md §2.12), as ``<case>_sliding``, from the sliding joint's own fast ear in
+    the same way. The damping is the ``[sweep]`` section's. ``cavities``:
     the middle-ear cavity states computed beside the open ear and compared with the published cat circuit,
     "open", "intact" or "both" (docs/circuit.md §13.3: the ear's own default state is open,
     :data:`isj.cavities.DEFAULT_CAVITIES`, and every other number of the step is the open ear's; the
@@ -235,6 +238,7 @@ class TransmissionConfig:
     sliding_cases: tuple[str, ...] = ("base",)
     cavities: str = "both"
     cases_from: str = "fast"
+    fast_ear_check: str = "direct"
 
 
 @dataclass(frozen=True)
@@ -498,6 +502,12 @@ def _check_bands(cfg: ReportConfig) -> None:
     choices = ("open", "intact", "both")
     _need(t.cavities in choices, "transmission.cavities", t.cavities, 'must be "open", "intact" or "both"')
     _need(t.cases_from in ("fast", "fe"), "transmission.cases_from", t.cases_from, 'must be "fast" or "fe"')
+    _need(
+        t.fast_ear_check in ("direct", "band"),
+        "transmission.fast_ear_check",
+        t.fast_ear_check,
+        'must be "direct" or "band"',
+    )
     names = [c.name for c in THESIS_CASES]
     for c in t.cases:
         _need(c in names, "transmission.cases", c, f"each must be one of {', '.join(names)}")

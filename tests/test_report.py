@@ -225,6 +225,7 @@ def test_defaults_file_and_overrides_in_that_order(tmp_path):
         ("", ["sweep.fmin_hz=abc"], "sweep.fmin_hz"),
         ("[transmission]\ncavities = 'closed'\n", [], "transmission.cavities"),
         ("", ["transmission.cavities=3"], "transmission.cavities"),
+        ("[transmission]\nfast_ear_check = 'reduced'\n", [], "transmission.fast_ear_check"),
     ],
 )
 def test_bad_config_is_one_line_naming_it(tmp_path, text, overrides, word):
@@ -290,6 +291,10 @@ def test_transmission_pages_carry_the_fe_ear_over_the_band(report):
     chk = tr["fe_checks"]
     assert chk["passed"] and chk["max_mag_rel_error"] < 0.01 and chk["max_phase_error_deg"] < 1.0
     assert [c["freq_hz"] for c in chk["checks"]] == [20000.0]
+    # the direct solves check the first case as the step computed it: here the fast ear itself
+    # (fast_ear_check = "direct"), which is also compared with the rigid connection's FE reduction
+    assert chk["checked_model"] == tr["fe_reductions"]["p12"]["model"] == "fast"
+    assert "h_v" not in chk["fast_ear"] and chk["fast_ear"]["rigid_h_v"]["band"]["max_db"] < 0.5
     # at 100 Hz ΔH_V is the static FE ear's ratio of footplate pistons (independent solves), up to
     # the joint's loss factors (complex moduli; measured 0.01 dB)
     static = {c["case"]: c["footplate_piston_m_per_pa"] for c in ear["cases"]}

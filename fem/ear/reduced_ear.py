@@ -630,6 +630,9 @@ def check_against_direct(
 ) -> dict:
     """The reduced model against direct FE harmonic solves (:func:`fem.ear.dynamics.harmonic`).
 
+    ``rom``: a :class:`ReducedEar` (reduced at ``materials``) or a
+    :class:`fem.ear.fast_ear.FastEar`, which is evaluated at ``materials``.
+
     Returns
     -------
     dict: ``checks`` (per frequency: both responses as [re, im] per output, ``{output}_mag_rel_error``
@@ -641,8 +644,13 @@ def check_against_direct(
     t0 = time.perf_counter()
     direct = harmonic(model, freqs, materials, ear_materials, damping, masses).outputs()
     t1 = time.perf_counter()
-    red = rom._outputs(freqs, damping)
-    names = ("umbo_m", "stapes_m", "alpha_rad", "beta_rad")[: 4 if rom.has_joint else 2]
+    if isinstance(rom, ReducedEar):
+        red, has_joint = rom._outputs(freqs, damping), rom.has_joint
+    else:  # a fast ear: the columns of the same outputs at ``materials``
+        resp = rom.frequency_response(freqs, materials, damping)
+        red = np.column_stack([resp[k] for k in ("umbo_m", "stapes_m", "alpha_rad", "beta_rad")])
+        has_joint = True
+    names = ("umbo_m", "stapes_m", "alpha_rad", "beta_rad")[: 4 if has_joint else 2]
     red, direct = red[:, : len(names)], direct[:, : len(names)]  # α, β are zero without the joint
     mag = np.abs(np.abs(red) / np.abs(direct) - 1)
     ph = np.abs(np.degrees(np.angle(red / direct)))
