@@ -12,7 +12,9 @@ a loaded, shared machine slows both alike; the least wall time of the rounds
 is the least disturbed, the CPU time (user + system, all threads) the
 steadiest. It prints medians, least times, the ratios of this checkout's to
 the base's and the load average, checks that α and β agree (bit for bit,
-else to 1e-12), and writes ``benchmarks/results/fem_speed.json``.
+else to 1e-10, inside the FE results' honesty tolerance of docs/developer/cache-keys.md §3:
+PARDISO's thread count moves them by 8.5e-12, dropping its iterative refinement by 4.7e-11),
+and writes ``benchmarks/results/fem_speed.json``.
 
 Prints mesh, assembly and solve times and dofs; the end-to-end time of
 ``isj fem solve`` with the mesh cached (a fresh process, imports included); the
@@ -146,6 +148,8 @@ def end_to_end_cli(order, resolution):
 
 
 OUT = Path(__file__).resolve().parent / "results" / "fem_speed.json"
+#: How far α and β may move from the base's (relative), inside the FE results' honesty tolerance.
+AGREE_RTOL = 1e-10
 
 #: Runs ``isj`` (argv after the checkout's path) from the checkout given first, whatever is installed.
 _LAUNCH = """
@@ -273,8 +277,8 @@ def main(argv=None):
         args.json.write_text(json.dumps(result, indent=2, sort_keys=True) + "\n")
         print(f"wrote {args.json}")
         worst = max(f["alpha_beta_max_rel_diff"] for f in result["figures"].values())
-        if worst > 1e-12:  # faster, but not the same answers: a failure, not a figure
-            sys.exit(f"alpha, beta differ from the base's by {worst:.1e} (relative) > 1e-12")
+        if worst > AGREE_RTOL:  # faster, but not the same answers: a failure, not a figure
+            sys.exit(f"alpha, beta differ from the base's by {worst:.1e} (relative) > {AGREE_RTOL:g}")
         return
     g, mat = Geometry(), Materials()
 

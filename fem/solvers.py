@@ -260,7 +260,7 @@ class PardisoSolver:
         Iterative refinement only after perturbed pivots (iparm(8) = 0; MKL's default is two
         steps after every solve). A Cholesky factorization has no perturbed pivots, and on
         the default joint model the two steps left the relative residual where it was
-        (1.3e-11) while tripling a solve's time (0.21 → 0.07 s, docs/performance.md §8.7);
+        (1.3e-11) while tripling a solve's time (0.21 → 0.07 s, docs/performance.md §8.9);
         the solution moved by 2.5e-11 relative, below the results' honesty tolerance
         (docs/developer/cache-keys.md §3).
         """
