@@ -555,3 +555,33 @@ def test_the_drum_bands_the_report_states_are_the_convergence_benchmarks():
     assert DRUM_CONVERGENCE["against_m"] == min(r["drum_mesh_size_m"] for r in stored["rows"])
     assert drum_convergence(ReportConfig().mesh.drum_mesh_size_m)["within_1db_up_to_hz"] > 10e3
     assert drum_convergence(0.2e-3)["within_1db_up_to_hz"] is None  # not measured: not stated
+
+
+def test_the_band_check_reduces_the_first_case_and_compares_the_fast_ear_over_the_band(report, monkeypatch):
+    """``fast_ear_check = "band"``: the first case also reduced with FE; the fast ear against that
+    reduction over the band (within the targets to 10 kHz) and the reduction against the direct
+    solves, which then agree far more closely than the fast ear's default check did."""
+    import dataclasses
+
+    import isj.reports.run as run_mod
+    from isj.reports.steps import Context
+    from isj.reports.transmission_step import fe_band
+
+    monkeypatch.setenv("ISJ_FE_CACHE_DIR", str(report["fe_cache"]))
+    config = report["config"]
+    t = dataclasses.replace(config.transmission, fast_ear_check="band", sliding_cases=())
+    config = dataclasses.replace(config, transmission=t)
+    ctx = Context(config, run_mod.load_calibration(config), report["fe_cache"], progress=False)
+    freq_hz = np.geomspace(t.fmin_hz, t.fmax_hz, t.n_freq)
+    _, info, checks, _ = fe_band(ctx, freq_hz)
+    assert info["p12"]["model"] == "fast" and checks["checked_model"] == "fe"
+    band = checks["fast_ear"]
+    targets = band["targets_to_10khz"]
+    assert band["h_v"]["to_10khz"]["max_db"] < targets["h_v_db"]
+    assert band["delta_h_v"]["to_10khz"]["max_deg"] < targets["delta_deg"]
+    assert checks["passed"] and checks["max_mag_rel_error"] < 1e-3
+    default = json.loads((report["dir"] / "data" / "transmission.json").read_text())["fe_checks"]
+    assert (
+        default["checked_model"] == "fast"
+        and default["checks"][0]["freq_hz"] == checks["checks"][0]["freq_hz"]
+    )
