@@ -133,6 +133,20 @@ class RegionMatrices:
     mu: np.ndarray
     mass: np.ndarray | None = None
     positions: np.ndarray | None = None  # CSR data positions of the blocks, cached
+    combined: tuple | None = None  # (ratio, lam + ratio · mu) of the last ratio asked, cached
+
+    def lam_plus(self, ratio: float) -> np.ndarray:
+        """The blocks ``lam + ratio · mu`` (one modulus's stiffness per unit λ at μ/λ = ``ratio``).
+
+        Every term of a stiffness sum scales a region's λ and μ parts by the same E, so their
+        ratio is fixed by ν: the blocks are made once per ratio and kept (the last one), which
+        makes each later sum one product instead of three (docs/performance.md §8.9).
+        """
+        kept = self.combined
+        if kept is None or kept[0] != ratio:
+            kept = (ratio, self.lam + ratio * self.mu)
+            object.__setattr__(self, "combined", kept)
+        return kept[1]
 
 
 # Hammer's 4-point rule, degree 2: exact for products of P2 gradients on
@@ -223,7 +237,7 @@ def _blocks(rm: RegionMatrices, coef: tuple[float, float], part: str) -> np.ndar
     """(p, 3, 3) blocks of one region's term of :func:`combine`."""
     a, b = coef
     if part == "stiffness":
-        return a * rm.lam + b * rm.mu
+        return b * rm.mu if a == 0 else a * rm.lam_plus(b / a)
     if rm.mass is None:
         raise ValueError("mass not assembled: call fem.assembly.assemble_mass first")
     return a * rm.mass[:, None, None] * np.eye(3)

@@ -23,9 +23,11 @@ def region_strain_energy(
     for name, rm in regions.items():
         ui = un[pattern.pair_row[rm.pairs]]
         uj = un[pattern.pair_col[rm.pairs]]
-        e_lam = np.einsum("pk,pkl,pl->", ui, rm.lam, uj, optimize=True)
-        e_mu = np.einsum("pk,pkl,pl->", ui, rm.mu, uj, optimize=True)
-        out[name] = 0.5 * youngs_pa[name] * float(lam * e_lam + mu * e_mu)
+        if lam == 0:  # ν = 0: the μ part alone
+            e = mu * np.einsum("pk,pkl,pl->", ui, rm.mu, uj, optimize=True)
+        else:  # the blocks the stiffness sums use (RegionMatrices.lam_plus): one product, not two
+            e = lam * np.einsum("pk,pkl,pl->", ui, rm.lam_plus(mu / lam), uj, optimize=True)
+        out[name] = 0.5 * youngs_pa[name] * float(e)
     return out
 
 
