@@ -53,7 +53,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from isj.errors import InvalidParameter, SolverUnavailable
+from isj.errors import InvalidParameter, SolverFailed, SolverUnavailable
 
 BACKENDS = ("pardiso", "cholmod", "superlu")
 
@@ -198,8 +198,35 @@ class _Upper:
         self.indices = A.indices[self.mask].astype(np.int32)
         self.shape = A.shape
 
+    def missing_diagonal(self) -> np.ndarray:
+        """Rows whose diagonal entry is not in the pattern (PARDISO needs every one stored)."""
+        n = self.shape[0]
+        first = np.full(n, -1, dtype=np.int64)
+        stored = self.indptr[1:] > self.indptr[:-1]
+        first[stored] = self.indices[self.indptr[:-1][stored]]
+        return np.flatnonzero(first != np.arange(n))
+
     def __call__(self, A: sp.csr_matrix) -> sp.csr_matrix:
         return sp.csr_matrix((A.data[self.mask], self.indices, self.indptr), shape=self.shape)
+
+
+# MKL PARDISO's error codes (the ``error`` argument), as its reference names them
+_PARDISO_ERRORS = {
+    -1: "input inconsistent",
+    -2: "not enough memory",
+    -3: "reordering problem",
+    -4: "zero pivot: the matrix is singular or, for a Cholesky factor, not positive definite",
+    -5: "unclassified internal error",
+    -6: "reordering failed",
+    -7: "diagonal matrix is singular",
+    -8: "32-bit integer overflow",
+    -9: "not enough memory for the out-of-core solver",
+    -10: "error opening the out-of-core files",
+    -11: "read/write error with the out-of-core files",
+    -12: "wrong PARDISO interface for this library",
+    -13: "interrupted",
+}
+_PARDISO_PHASES = {11: "analysis", 22: "factorization", 33: "solve"}
 
 
 def _pardiso_defaults(ps, mtype: int) -> None:
@@ -233,6 +260,12 @@ class PardisoSolver:
         pypardiso = _pypardiso()
         n = A.shape[0]
         self._upper = upper if upper is not None else _Upper(A)
+        missing = self._upper.missing_diagonal()
+        if missing.size:  # MKL reads out of bounds on such a pattern (a crash, not an error code)
+            raise SolverFailed(
+                f"PARDISO needs every diagonal entry stored: {missing.size} of {n} rows lack theirs "
+                f"(first: row {missing[0]}); an unknown that no element touches"
+            )
         # a fresh solver object per pattern: pypardiso's own spsolve caches by hash
         self._ps = pypardiso.PyPardisoSolver(mtype=self.mtype)
         threads = pin_solver_threads(self._ps.libmkl)["threads"]  # before the first MKL call below
@@ -300,7 +333,11 @@ class PardisoSolver:
             ctypes.byref(error),
         )
         if error.value != 0:
-            raise _pypardiso().PyPardisoError(error.value)
+            what = _PARDISO_ERRORS.get(error.value, "unknown error")
+            stage = _PARDISO_PHASES.get(phase, f"phase {phase}")
+            raise SolverFailed(
+                f"PARDISO {stage} failed (error {error.value}: {what}), {self._upper.shape[0]} unknowns"
+            )
         return np.ascontiguousarray(x)
 
     def factor(self, A: sp.csr_matrix) -> None:

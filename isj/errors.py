@@ -21,6 +21,7 @@ __all__ = [
     "MeshError",
     "InvalidMesh",
     "SolverUnavailable",
+    "SolverFailed",
     "PointOutsideBody",
     "CorruptCalibration",
     "FitFailed",
@@ -76,6 +77,16 @@ class MeshError(IsjError, RuntimeError):
 
 class SolverUnavailable(IsjError, RuntimeError):
     """The requested solver backend is not installed here."""
+
+
+class SolverFailed(IsjError, RuntimeError):
+    """The sparse solver could not factor or solve a system.
+
+    Raised for a matrix that is not positive definite where a Cholesky factor is
+    asked for (a body with a rigid-body mode left free), a pattern without its
+    diagonal, or the solver's own failure (memory). The message names the
+    solver's error code.
+    """
 
 
 class FitFailed(IsjError, RuntimeError):
