@@ -3,8 +3,9 @@
 import numpy as np
 import pytest
 import scipy.sparse as sp
-from isj.errors import IsjError, SolverFailed
 from isj.fem.solvers import PardisoIndefiniteSolver, PardisoSolver, available_backends
+
+from isj.errors import IsjError, SolverFailed
 
 pytestmark = pytest.mark.skipif("pardiso" not in available_backends(), reason="needs PARDISO (pypardiso)")
 
