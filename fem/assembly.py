@@ -20,6 +20,7 @@ bound memory.
 
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -226,21 +227,61 @@ def combine(
 
     For ``part="stiffness"``, ``coef[r] = (λ_r, μ_r)`` in Pa; for ``part="mass"``,
     ``coef[r] = (ρ_r, _)`` in kg/m³ (call :func:`assemble_mass` first).
+
+    Each region's blocks are added on the solver's threads (:func:`fem.solvers.solver_threads`),
+    each thread a slice of its node pairs. A region's positions are distinct, and the regions
+    are added one after the other, so every entry sums its terms in the same order on any number
+    of threads: the same bits (tests/test_assembly_threads.py).
     """
+    from .solvers import solver_threads
+
     data = np.zeros(pattern.nnz)
-    for name, rm in regions.items():
-        data[_positions(pattern, rm)] += _blocks(rm, coef[name], part).ravel()
+    threads = solver_threads()
+    pool = ThreadPoolExecutor(threads) if threads > 1 else None
+    try:
+        for name, rm in regions.items():
+            _add_region(data, _positions(pattern, rm), rm, coef[name], part, pool, threads)
+    finally:
+        if pool is not None:
+            pool.shutdown()
     return data
 
 
-def _blocks(rm: RegionMatrices, coef: tuple[float, float], part: str) -> np.ndarray:
-    """(p, 3, 3) blocks of one region's term of :func:`combine`."""
+#: Node pairs below which a region is added on one thread (a thread's start costs more).
+_MIN_PAIRS_PER_THREAD = 20_000
+
+
+def _add_region(data, positions, rm: RegionMatrices, coef, part: str, pool, threads: int) -> None:
+    """``data[positions] += blocks`` for one region, its pairs split among ``threads``."""
+    n_pairs = rm.pairs.size
+    parts = max(1, min(threads, n_pairs // _MIN_PAIRS_PER_THREAD))
+    bounds = np.linspace(0, n_pairs, parts + 1).astype(np.int64)
+
+    def add(i: int) -> None:
+        lo, hi = int(bounds[i]), int(bounds[i + 1])
+        data[positions[9 * lo : 9 * hi]] += _blocks(rm, coef, part, lo, hi).ravel()
+
+    a, b = coef
+    if part == "stiffness" and a != 0:
+        rm.lam_plus(b / a)  # made (and kept) here, not by each thread at once
+    if pool is None or parts == 1:
+        for i in range(parts):
+            add(i)
+        return
+    for done in [pool.submit(add, i) for i in range(parts)]:
+        done.result()
+
+
+def _blocks(
+    rm: RegionMatrices, coef: tuple[float, float], part: str, lo: int = 0, hi: int | None = None
+) -> np.ndarray:
+    """(p, 3, 3) blocks of one region's term of :func:`combine`, for its pairs ``lo:hi``."""
     a, b = coef
     if part == "stiffness":
-        return b * rm.mu if a == 0 else a * rm.lam_plus(b / a)
+        return b * rm.mu[lo:hi] if a == 0 else a * rm.lam_plus(b / a)[lo:hi]
     if rm.mass is None:
         raise ValueError("mass not assembled: call fem.assembly.assemble_mass first")
-    return a * rm.mass[:, None, None] * np.eye(3)
+    return a * rm.mass[lo:hi, None, None] * np.eye(3)
 
 
 def _positions(pattern: Pattern, rm: RegionMatrices) -> np.ndarray:
