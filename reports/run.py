@@ -230,7 +230,9 @@ def _write_pdf(config: ReportConfig, run: dict, provenance: dict, final: Path, o
     reused = pages is not None
     if not reused:
         say("writing report.pdf ...")
-        pages = pdf.write_report(out / "report.pdf", config, run["results"], run["arrays"], provenance)
+        pages = pdf.write_report(
+            out / "report.pdf", config, run["results"], run["arrays"], provenance, say=say
+        )
     return {"key": pdf_key, "sha256": _file_sha256(out / "report.pdf"), "reused": reused, "pages": pages}
 
 

@@ -53,6 +53,20 @@ def test_pdf_is_reproducible_without_creation_date(report, tmp_path):
         assert again.read_bytes() == report["first_bytes"]
 
 
+def test_pdf_has_the_same_bytes_from_one_process_two_or_a_failed_second(report, tmp_path, monkeypatch):
+    res = report["second"]
+    args = (report["config"], res["steps"], res["arrays"], res["provenance"])
+    two, one, failed = tmp_path / "two.pdf", tmp_path / "one.pdf", tmp_path / "failed.pdf"
+    assert pdf.write_report(two, *args) == list(pdf.PAGE_TITLES)
+    pdf.write_report(one, *args, processes=1)
+    heard = []
+    monkeypatch.setattr(pdf.sys, "executable", "/bin/false")  # the second process exits 1 at once
+    pdf.write_report(failed, *args, say=lambda message, level=1: heard.append(message))
+    assert two.read_bytes() == one.read_bytes() == failed.read_bytes()
+    assert len(heard) == 1 and "pages 11-15 drawn here: the second process failed (exit 1" in heard[0]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["failed.pdf", "one.pdf", "two.pdf"]  # no parts left
+
+
 def test_a_warm_rerun_keeps_the_pdf_and_a_damaged_one_is_laid_out_again(report, tmp_path, monkeypatch):
     import shutil
 
