@@ -97,10 +97,10 @@ RASTER_DPI = 200
 PDF_COMPRESSION = 1
 
 
-#: Pages (0-based) the second process draws: the last five (transmission's costs, the sliding
-#: joint, the uncertainty, the guard's twelve scatter panels, the circuit), about 4.8 s of the
-#: drawing against 4.6 s for the ten before them, where the second process also starts Python.
-WORKER_PAGES = tuple(range(10, len(PAGE_TITLES)))
+#: Pages (0-based) the second process draws: the last four (the sliding joint, the uncertainty,
+#: the guard's twelve scatter panels, the circuit), about 4.2 s of drawing on the default report
+#: against 5.2 s for the eleven before them; the second process also starts Python (0.7-0.9 s).
+WORKER_PAGES = tuple(range(11, len(PAGE_TITLES)))
 
 #: Seconds to wait for the second process before drawing its pages here.
 WORKER_TIMEOUT_S = 300

@@ -63,7 +63,7 @@ def test_pdf_has_the_same_bytes_from_one_process_two_or_a_failed_second(report, 
     monkeypatch.setattr(pdf.sys, "executable", "/bin/false")  # the second process exits 1 at once
     pdf.write_report(failed, *args, say=lambda message, level=1: heard.append(message))
     assert two.read_bytes() == one.read_bytes() == failed.read_bytes()
-    assert len(heard) == 1 and "pages 11-15 drawn here: the second process failed (exit 1" in heard[0]
+    assert len(heard) == 1 and "pages 12-15 drawn here: the second process failed (exit 1" in heard[0]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["failed.pdf", "one.pdf", "two.pdf"]  # no parts left
 
 
