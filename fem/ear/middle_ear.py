@@ -299,6 +299,17 @@ class MiddleEarModel:
         return pts, k
 
     def _fixed_values(self, m: EarMaterials) -> np.ndarray:
+        """The ear's entries (shells, annular springs, ligaments) for ``m``; the last ones kept
+        (read-only): the seven cases and the transmission's checks share one ear."""
+        kept = getattr(self, "_fixed_kept", None)
+        if kept is not None and kept[0] == m:
+            return kept[1]
+        vals = self._fixed_values_for(m)
+        vals.flags.writeable = False
+        self._fixed_kept = (m, vals)
+        return vals
+
+    def _fixed_values_for(self, m: EarMaterials) -> np.ndarray:
         g, d, fp = self.geometry, self.drum, self.footplate
         drum = ShellMaterial(m.drum_e_pa, m.drum_nu, m.drum_thickness_m, DRUM_DENSITY_KG_M3)
         centre = ShellMaterial(
