@@ -140,7 +140,10 @@ def _model(
             _MODELS.pop(scope["new"].pop(0), None)  # the block's oldest model: it is done with it
         if len(_MODELS) >= _MAX_MODELS:
             _MODELS.pop(next(iter(_MODELS)))  # oldest first
-        model = PedicleJointModel(geometry, order=order, resolution=resolution, joint=joint)
+        # every model made here is solved: its analysis runs while it is assembled
+        model = PedicleJointModel(
+            geometry, order=order, resolution=resolution, joint=joint, analyse_ahead=True
+        )
         _MODELS[key] = (model, model.mesh.content_hash())
         if scope is not None:
             scope["new"].append(key)

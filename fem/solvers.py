@@ -256,7 +256,14 @@ class PardisoSolver:
     mtype = 2
     dtype = np.float64
 
-    def __init__(self, A: sp.csr_matrix, perm: np.ndarray | None = None, upper: _Upper | None = None):
+    def __init__(
+        self,
+        A: sp.csr_matrix,
+        perm: np.ndarray | None = None,
+        upper: _Upper | None = None,
+        ahead: bool = False,
+        on_analysed=None,
+    ):
         pypardiso = _pypardiso()
         n = A.shape[0]
         self._upper = upper if upper is not None else _Upper(A)
@@ -284,8 +291,46 @@ class PardisoSolver:
         self._ia = self._upper.indptr + np.int32(1)
         self._ja = self._upper.indices + np.int32(1)
         self._data = self._upper_data(A)
-        self._call(11, np.zeros((n, 1), dtype=self.dtype))  # ordering and symbolic factorization, once
-        self.perm = self._ps.perm
+        self._on_analysed = on_analysed
+        self._analysis = None
+        if ahead:
+            # the analysis (ordering and symbolic factorization) reads the pattern only, so it can
+            # run while the caller computes the values; ctypes releases the GIL for MKL's call
+            self._analysis = threading.Thread(
+                target=self._analyse_ahead, name="pardiso-analysis", daemon=True
+            )
+            self._analysis_error = None
+            self._analysis.start()
+        else:
+            self._analyse()
+
+    def _analyse(self) -> None:
+        """Ordering and symbolic factorization (phase 11), once per pattern."""
+        self._call(11, np.zeros((self._upper.shape[0], 1), dtype=self.dtype))
+        if self._on_analysed is not None:
+            self._on_analysed(self._ps.perm)
+
+    @property
+    def perm(self) -> np.ndarray:
+        """The fill-reducing ordering of the analysis (1-based), once it is done."""
+        self.ready()
+        return self._ps.perm
+
+    def _analyse_ahead(self) -> None:
+        try:
+            self._analyse()
+        except BaseException as exc:  # handed to the caller's thread by ready()
+            self._analysis_error = exc
+
+    def ready(self) -> None:
+        """Wait for an analysis started with ``ahead=True``; raise what it raised."""
+        thread, self._analysis = self._analysis, None
+        if thread is None:
+            return
+        thread.join()
+        if self._analysis_error is not None:
+            error, self._analysis_error = self._analysis_error, None
+            raise error
 
     def _configure(self, iparm: np.ndarray) -> None:
         """Adjust MKL's defaults (0-based ``iparm``) for this matrix type.
@@ -349,6 +394,7 @@ class PardisoSolver:
         For callers that gather those entries straight from their own storage
         (``ElasticModel``), skipping the full matrix.
         """
+        self.ready()
         self.factored_for = None  # a caller that knows what it factored names it afterwards
         self._data = np.ascontiguousarray(data, dtype=self.dtype)  # kept: iterative refinement reads A
         self._call(22, np.zeros((self._upper.shape[0], 1), dtype=self.dtype))
@@ -358,6 +404,9 @@ class PardisoSolver:
 
     def free(self) -> None:
         """Release MKL's memory for this solver (phase −1); it cannot be used afterwards."""
+        thread = getattr(self, "_analysis", None)
+        if thread is not None:  # MKL's handle is busy until its analysis returns
+            thread.join()
         ps, self._ps = getattr(self, "_ps", None), None
         if ps is not None:
             ps.free_memory(everything=True)
@@ -496,7 +545,29 @@ def ordering_key(upper: _Upper, mtype: int) -> str:
     return h.hexdigest()
 
 
-def make_solver(A: sp.csr_matrix, backend: str = "auto", ordering_cache: Path | None = None):
+def resolve_backend(backend: str = "auto") -> str:
+    """The backend ``backend`` names here ("auto": the fastest installed), checked.
+
+    Raises
+    ------
+    ValueError
+        For an unknown name.
+    SolverUnavailable
+        For a known backend that is not installed here.
+    """
+    have = available_backends()
+    if backend == "auto":
+        backend = have[0]
+    if backend not in BACKENDS:
+        raise ValueError(f"solver backend = {backend!r}: must be one of auto, {', '.join(BACKENDS)}")
+    if backend not in have:
+        raise SolverUnavailable(f"solver backend {backend!r} is not installed here")
+    return backend
+
+
+def make_solver(
+    A: sp.csr_matrix, backend: str = "auto", ordering_cache: Path | None = None, ahead: bool = False
+):
     """A solver analysed for the pattern of the SPD matrix ``A`` (not yet factored).
 
     Call ``factor(A)`` with any matrix of that pattern, then ``solve(b)``
@@ -506,24 +577,23 @@ def make_solver(A: sp.csr_matrix, backend: str = "auto", ordering_cache: Path | 
     per pattern (:func:`fem.cache.load_ordering`). Given its ordering, PARDISO
     skips METIS (about a third of the analysis) and factors to the same bits
     as when it computed the ordering itself (tests/test_fem_speed.py).
+
+    ``ahead``: PARDISO analyses on a thread, and the first ``factor`` waits for it (``ready()``
+    waits explicitly). Its analysis reads only the pattern, so ``A`` may hold any values of
+    that pattern (ones); the factorization is the same bit for bit (tests/test_solver_ahead.py).
+    The other backends analyse at once, as without it.
     """
-    have = available_backends()
-    if backend == "auto":
-        backend = have[0]
-    if backend not in BACKENDS:
-        raise ValueError(f"solver backend = {backend!r}: must be one of auto, {', '.join(BACKENDS)}")
-    if backend not in have:
-        raise SolverUnavailable(f"solver backend {backend!r} is not installed here")
+    backend = resolve_backend(backend)
     A = sp.csr_matrix(A)
     A.sort_indices()
-    if backend != "pardiso" or ordering_cache is None:
+    if backend != "pardiso":
         return _CLASSES[backend](A)
+    if ordering_cache is None:
+        return PardisoSolver(A, ahead=ahead)
     from .cache import load_ordering, store_ordering
 
     upper = _Upper(A)
     key = ordering_key(upper, PardisoSolver.mtype)
     perm = load_ordering(ordering_cache, key, A.shape[0])
-    solver = PardisoSolver(A, perm, upper)
-    if perm is None:
-        store_ordering(ordering_cache, key, solver.perm)
-    return solver
+    store = None if perm is not None else (lambda made: store_ordering(ordering_cache, key, made))
+    return PardisoSolver(A, perm, upper, ahead=ahead, on_analysed=store)

@@ -180,7 +180,7 @@ def _checked_geometry(args):
     return geometry
 
 
-def _model(args, geometry):
+def _model(args, geometry, analyse_ahead: bool = True):
     from isj.fem.model import PedicleJointModel
     from isj.fem.sliding import DEFAULT_LAYER_SHEAR_PA
 
@@ -191,6 +191,7 @@ def _model(args, geometry):
         solver=args.solver,
         joint=getattr(args, "joint", "bonded"),
         layer_shear_pa=getattr(args, "layer_shear_pa", None) or DEFAULT_LAYER_SHEAR_PA,
+        analyse_ahead=analyse_ahead,  # a model to be solved: its analysis runs while it is assembled
     )
 
 
@@ -477,7 +478,7 @@ def mesh(args) -> int:
         model = _user_model(args)
     else:
         geometry = _checked_geometry(args)
-        model = _model(args, geometry)
+        model = _model(args, geometry, analyse_ahead=False)  # nothing is solved
     if msh is not None:
         write_mesh(model.mesh, msh)
     if points_out is not None:
