@@ -39,6 +39,7 @@ from .energy import element_strain_energy_density, region_strain_energy
 from .memo import kept_result
 from .sliding import (
     DEFAULT_LAYER_SHEAR_PA,
+    TiedReduction,
     check_joint,
     check_layer_shear,
     layer_correction,
@@ -171,10 +172,10 @@ class ElasticModel:
         mesh, on one core) reads the pattern only, so it runs while this thread assembles the
         regions and sums the stiffness; the first factorization waits for it. The factorization
         is the same bit for bit (tests/test_solver_ahead.py). Other backends, a model that
-        already has its solver, and a reduction other than plain clamping (the sliding joint's
-        ties): nothing is started.
+        already has its solver, and a reduction whose pattern is not fixed by the mesh (any but
+        the plain clamping and the sliding joint's ties): nothing is started.
         """
-        if self._solver is not None or type(self.reduction) is not Reduction:
+        if self._solver is not None or type(self.reduction) not in (Reduction, TiedReduction):
             return
         if resolve_backend(self._solver_name) != "pardiso":
             return
@@ -326,10 +327,12 @@ class PedicleJointModel(ElasticModel):
         if joint == "sliding":  # the bonded mesh, cut open at the gap–plate face (fem.sliding)
             mesh = split_gap_face(mesh, self.geometry)
         t1 = time.perf_counter()
-        # the sliding joint's reduction (its ties) is made below: its analysis cannot start earlier
+        # the sliding joint's reduction (its ties) is made below: its analysis starts after it
         super().__init__(mesh, order, solver, analyse_ahead=analyse_ahead and joint != "sliding")
         if joint == "sliding":
             self.reduction = tied_reduction(self, clamped_dofs(self.space, "clamped"))
+            if analyse_ahead:
+                self.analyse_ahead()
         # the −x face of the incus, pushed in +x; unit pressure, scaled per case
         self.unit_load = pressure_load(self.space, "loaded", 1.0, (1.0, 0.0, 0.0))
         self.angles = angle_operator(self.space, self.geometry)
