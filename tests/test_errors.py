@@ -17,6 +17,7 @@ ERRORS = {
     "InvalidMesh": ValueError,
     "MeshError": RuntimeError,
     "SolverUnavailable": RuntimeError,
+    "SolverFailed": RuntimeError,
     "FitFailed": RuntimeError,
     "EvaluationError": RuntimeError,
 }
