@@ -106,7 +106,7 @@ WORKER_PAGES = tuple(range(11, len(PAGE_TITLES)))
 WORKER_TIMEOUT_S = 300
 
 #: rcParams not sent to the second process: its backend is Agg, whatever this one uses.
-_RC_KEPT = frozenset({"backend", "backend_fallback", "interactive"})
+_RC_NOT_SENT = frozenset({"backend", "backend_fallback", "interactive"})
 
 
 def draw_part(path, config, results: dict, arrays: dict, provenance: dict, pages) -> list[str]:
@@ -172,7 +172,7 @@ def _start_worker(part: Path, config, results, arrays, provenance) -> subprocess
     import matplotlib
 
     job = part.with_name(part.name + ".in")
-    rc = {k: v for k, v in matplotlib.rcParams.items() if k not in _RC_KEPT}
+    rc = {k: v for k, v in matplotlib.rcParams.items() if k not in _RC_NOT_SENT}
     spec = {
         "config": config,
         "results": results,
