@@ -17,7 +17,7 @@ class _Mesh:
 class _StandIn:
     built = 0
 
-    def __init__(self, geometry, order, resolution, joint):
+    def __init__(self, geometry, order, resolution, joint, analyse_ahead=False):
         type(self).built += 1
         self.geometry, self.mesh = geometry, _Mesh()
         self.freed = 0
