@@ -252,22 +252,30 @@ _MIN_PAIRS_PER_THREAD = 20_000
 
 
 def _add_region(data, positions, rm: RegionMatrices, coef, part: str, pool, threads: int) -> None:
-    """``data[positions] += blocks`` for one region, its pairs split among ``threads``."""
+    """``data[positions] += blocks`` for one region, its pairs split among ``threads``.
+
+    A stiffness term is added through two buffers made here, each thread filling its own slice
+    (``take``, ``multiply``, ``add``, ``put``): the threads allocate nothing, so no thread's
+    malloc arena keeps memory after the sum (allocating there kept 70-90 MB per process on
+    the default mesh). The arithmetic is ``data[p] + E·blocks[p]``, as with one thread.
+    """
     n_pairs = rm.pairs.size
     parts = max(1, min(threads, n_pairs // _MIN_PAIRS_PER_THREAD))
-    bounds = np.linspace(0, n_pairs, parts + 1).astype(np.int64)
+    a, b = coef
+    if pool is None or parts == 1 or part != "stiffness":
+        data[positions] += _blocks(rm, coef, part).ravel()
+        return
+    scale, flat = (b, rm.mu.reshape(-1)) if a == 0 else (a, rm.lam_plus(b / a).reshape(-1))
+    summed, term = np.empty(flat.size), np.empty(flat.size)
+    bounds = 9 * np.linspace(0, n_pairs, parts + 1).astype(np.int64)
 
     def add(i: int) -> None:
-        lo, hi = int(bounds[i]), int(bounds[i + 1])
-        data[positions[9 * lo : 9 * hi]] += _blocks(rm, coef, part, lo, hi).ravel()
+        part_of = slice(int(bounds[i]), int(bounds[i + 1]))
+        np.take(data, positions[part_of], out=summed[part_of], mode="clip")  # "raise" would buffer out
+        np.multiply(scale, flat[part_of], out=term[part_of])
+        np.add(summed[part_of], term[part_of], out=summed[part_of])
+        np.put(data, positions[part_of], summed[part_of], mode="clip")
 
-    a, b = coef
-    if part == "stiffness" and a != 0:
-        rm.lam_plus(b / a)  # made (and kept) here, not by each thread at once
-    if pool is None or parts == 1:
-        for i in range(parts):
-            add(i)
-        return
     for done in [pool.submit(add, i) for i in range(parts)]:
         done.result()
 
