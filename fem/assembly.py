@@ -255,9 +255,9 @@ def _add_region(data, positions, rm: RegionMatrices, coef, part: str, pool, thre
     """``data[positions] += blocks`` for one region, its pairs split among ``threads``.
 
     A stiffness term is added through two buffers made here, each thread filling its own slice
-    (``take``, ``multiply``, ``add``, ``put``): the threads allocate nothing, so no thread's
-    malloc arena keeps memory after the sum (allocating there kept 70-90 MB per process on
-    the default mesh). The arithmetic is ``data[p] + E·blocks[p]``, as with one thread.
+    (``take``, ``multiply``, ``add``, ``put``): the threads allocate nothing, so their malloc
+    arenas do not keep a sum's temporaries (docs/performance.md §8.10). The arithmetic is
+    ``data[p] + E·blocks[p]``, as with one thread.
     """
     n_pairs = rm.pairs.size
     parts = max(1, min(threads, n_pairs // _MIN_PAIRS_PER_THREAD))
