@@ -230,3 +230,14 @@ def test_cli_fe_sweep_exits_1_when_a_check_fails(capsys, tmp_path, monkeypatch):
     ]
     assert main(argv) == 1
     assert "differs from a direct FE solve" in capsys.readouterr().err
+
+
+def test_frequency_chunks_give_the_same_bits_on_one_and_two_threads(rom, monkeypatch):
+    freqs = np.geomspace(100.0, 20e3, 37)  # ten chunks of 4, the last one short
+    out = {}
+    for threads in ("1", "2"):
+        monkeypatch.setenv("ISJ_SOLVER_THREADS", threads)
+        out[threads] = rom._solve(freqs, chunk=4)
+    assert out["1"].tobytes() == out["2"].tobytes()
+    # and each chunk is the solve of its own frequencies: the last one alone, unchunked
+    np.testing.assert_allclose(out["2"][-1], rom._solve(freqs[-1:], chunk=4)[0], rtol=1e-12)

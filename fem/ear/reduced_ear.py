@@ -27,6 +27,7 @@ from __future__ import annotations
 import hashlib
 import time
 from collections import OrderedDict
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -41,7 +42,7 @@ from isj.errors import InvalidParameter
 from isj.responses import FrequencyResponse
 from isj.validate import check_frequencies
 
-from ..solvers import available_backends, make_indefinite_solver
+from ..solvers import available_backends, make_indefinite_solver, solver_threads
 from .dynamics import harmonic
 from .joint_condensation import (
     CondensedEar,
@@ -409,8 +410,12 @@ class ReducedEar:
         return y
 
     def _solve_chunks(self, w, A0, A1, M, d, k, y, chunk) -> None:
+        """Stacked solves, ``chunk`` frequencies at a time (memory bounded), the chunks on the
+        solver's threads: a chunk's numbers do not depend on which thread computed it, or on how
+        many did (the caller holds BLAS to one thread; numpy lets go of the GIL in its solves)."""
         f1, f2 = self.load[:k], self.load[k:]
-        for i in range(0, w.size, chunk):  # stacked solves: a few at a time, memory bounded
+
+        def solve(i: int) -> None:
             wi = w[i : i + chunk, None, None]
             Z11 = A0[None, :k, :k] + 1j * wi * A1[None, :k, :k] - wi**2 * M[None, :k, :k]
             Z12 = A0[None, :k, k:] + 1j * wi * A1[None, :k, k:] - wi**2 * M[None, :k, k:]
@@ -420,6 +425,15 @@ class ReducedEar:
             y1 = np.linalg.solve(S, r[..., None])[..., 0]
             y[i : i + chunk, :k] = y1
             y[i : i + chunk, k:] = (f2[None] - (y1[:, None, :] @ Z12)[:, 0]) / z
+
+        starts = range(0, w.size, chunk)
+        threads = min(solver_threads(), len(starts))
+        if threads <= 1:
+            for i in starts:
+                solve(i)
+            return
+        with ThreadPoolExecutor(threads) as pool:
+            list(pool.map(solve, starts))  # each chunk fills its rows of y; an error is raised here
 
     def static(self) -> ReducedEarStaticResult:
         """Undamped static response per Pa: umbo and footplate centre vectors, footplate fit, α, β."""
