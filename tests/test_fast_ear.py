@@ -126,6 +126,20 @@ def test_batch_blocks_on_threads_give_the_bits_of_one_thread(fast, monkeypatch):
         np.testing.assert_allclose(three[i], r, rtol=1e-10, atol=0)
 
 
+def test_rest_of_the_ear_on_threads_gives_the_bits_of_one_thread(fast, monkeypatch):
+    """The rest of the ear is condensed 16 frequencies at a time on the solver's threads; a
+    chunk's numbers do not depend on the thread (three chunks, the last one short)."""
+    freqs = np.geomspace(200.0, 20e3, 37)
+    rests = {}
+    for threads in ("1", "3"):
+        monkeypatch.setenv("ISJ_SOLVER_THREADS", threads)
+        fast._rest_memo.clear()
+        rests[threads] = fast.rest(freqs)
+    for k in ("S", "g", "o0", "ob"):
+        assert rests["1"][k].shape[0] == freqs.size
+        assert rests["1"][k].tobytes() == rests["3"][k].tobytes(), k
+
+
 def test_static_response_is_exact_at_a_snapshot_design(fast, ear):
     """Ψ(E) of a snapshot design is in the basis and the rest is condensed exactly: statics to round-off."""
     direct = ear.static(Materials())

@@ -428,37 +428,44 @@ class FastEar:
         X = np.concatenate([K, I])
         nk = K.size
         dI = [np.diagonal(Y)[I] for Y in (A0, A1, M)]
-        out = {k: [] for k in ("S", "g", "o0", "ob")}
         w_all = 2 * np.pi * freqs
-        with one_blas_thread():
-            for i in range(0, w_all.size, 16):
-                w = w_all[i : i + 16, None, None]
 
-                def Z(rows, cols, w=w):
-                    ix = np.ix_(rows, cols)
-                    return A0[ix][None] + 1j * w * A1[ix][None] - w**2 * M[ix][None]
+        def chunk(i: int) -> dict:  # frequencies i to i + 16: the same arithmetic on any thread
+            w = w_all[i : i + 16, None, None]
 
-                zi = dI[0][None] + 1j * w[:, :, 0] * dI[1][None] - w[:, :, 0] ** 2 * dI[2][None]
-                Zkk, Zki, ZXB, ZBB = Z(K, K), Z(K, I), Z(X, B), Z(B, B)
-                # right-hand sides on the rest X: its coupling to x_B, the load, the output rows
-                R = np.concatenate(
-                    [ZXB, np.broadcast_to(f[X][None, :, None], (w.shape[0], X.size, 1)) + 0j], axis=2
-                )
-                R = np.concatenate(
-                    [R, np.broadcast_to(C[:, X].T[None], (w.shape[0], X.size, C.shape[0]))], axis=2
-                )
-                Sk = Zkk - (Zki / zi[:, None, :]) @ Zki.transpose(0, 2, 1)
-                rk = R[:, :nk] - Zki @ (R[:, nk:] / zi[:, :, None])
-                yk = np.linalg.solve(Sk, rk)
-                yi = (R[:, nk:] - Zki.transpose(0, 2, 1) @ yk) / zi[:, :, None]
-                Y = np.concatenate([yk, yi], axis=1)  # Z_XX⁻¹ R
-                YB, yf, YC = Y[:, :, :12], Y[:, :, 12], Y[:, :, 13:]
-                ZBX = ZXB.transpose(0, 2, 1)
-                out["S"].append(ZBB - ZBX @ YB)
-                out["g"].append(f[B][None] - (ZBX @ yf[..., None])[..., 0])
+            def Z(rows, cols):
+                ix = np.ix_(rows, cols)
+                return A0[ix][None] + 1j * w * A1[ix][None] - w**2 * M[ix][None]
+
+            zi = dI[0][None] + 1j * w[:, :, 0] * dI[1][None] - w[:, :, 0] ** 2 * dI[2][None]
+            Zkk, Zki, ZXB, ZBB = Z(K, K), Z(K, I), Z(X, B), Z(B, B)
+            # right-hand sides on the rest X: its coupling to x_B, the load, the output rows
+            R = np.concatenate(
+                [ZXB, np.broadcast_to(f[X][None, :, None], (w.shape[0], X.size, 1)) + 0j], axis=2
+            )
+            R = np.concatenate(
+                [R, np.broadcast_to(C[:, X].T[None], (w.shape[0], X.size, C.shape[0]))], axis=2
+            )
+            Sk = Zkk - (Zki / zi[:, None, :]) @ Zki.transpose(0, 2, 1)
+            rk = R[:, :nk] - Zki @ (R[:, nk:] / zi[:, :, None])
+            yk = np.linalg.solve(Sk, rk)
+            yi = (R[:, nk:] - Zki.transpose(0, 2, 1) @ yk) / zi[:, :, None]
+            Y = np.concatenate([yk, yi], axis=1)  # Z_XX⁻¹ R
+            YB, yf, YC = Y[:, :, :12], Y[:, :, 12], Y[:, :, 13:]
+            ZBX = ZXB.transpose(0, 2, 1)
+            return {
+                "S": ZBB - ZBX @ YB,
+                "g": f[B][None] - (ZBX @ yf[..., None])[..., 0],
                 # C_X Z_XX⁻¹ = (Z_XX⁻¹ C_Xᵀ)ᵀ: Z is symmetric
-                out["o0"].append((YC.transpose(0, 2, 1) @ f[X][None, :, None])[..., 0])
-                out["ob"].append(C[:, B][None] - YC.transpose(0, 2, 1) @ ZXB)
+                "o0": (YC.transpose(0, 2, 1) @ f[X][None, :, None])[..., 0],
+                "ob": C[:, B][None] - YC.transpose(0, 2, 1) @ ZXB,
+            }
+
+        # the chunks on every core the solver may use, one BLAS thread each (as in batch)
+        starts = range(0, w_all.size, 16)
+        with one_blas_thread(), ThreadPoolExecutor(min(solver_threads(), len(starts) or 1)) as pool:
+            chunks = list(pool.map(chunk, starts))
+        out = {k: [c[k] for c in chunks] for k in ("S", "g", "o0", "ob")}
         res = {k: np.concatenate(v) for k, v in out.items()}
         if len(self._rest_memo) > 8:
             self._rest_memo.clear()
