@@ -430,8 +430,11 @@ class FastEar:
         dI = [np.diagonal(Y)[I] for Y in (A0, A1, M)]
         w_all = 2 * np.pi * freqs
 
-        def chunk(i: int) -> dict:  # frequencies i to i + 16: the same arithmetic on any thread
-            w = w_all[i : i + 16, None, None]
+        # 16 frequencies in flight in all, each thread its share: no more memory than one thread
+        step = max(1, 16 // solver_threads())
+
+        def chunk(i: int) -> dict:  # frequencies i to i + step: the same arithmetic on any thread
+            w = w_all[i : i + step, None, None]
 
             def Z(rows, cols):
                 ix = np.ix_(rows, cols)
@@ -462,7 +465,7 @@ class FastEar:
             }
 
         # the chunks on every core the solver may use, one BLAS thread each (as in batch)
-        starts = range(0, w_all.size, 16)
+        starts = range(0, w_all.size, step)
         with one_blas_thread(), ThreadPoolExecutor(min(solver_threads(), len(starts) or 1)) as pool:
             chunks = list(pool.map(chunk, starts))
         out = {k: [c[k] for c in chunks] for k in ("S", "g", "o0", "ob")}

@@ -410,23 +410,26 @@ class ReducedEar:
         return y
 
     def _solve_chunks(self, w, A0, A1, M, d, k, y, chunk) -> None:
-        """Stacked solves, ``chunk`` frequencies at a time (memory bounded), the chunks on the
+        """Stacked solves, ``chunk`` frequencies in flight at a time (memory bounded), shared among the
         solver's threads: a chunk's numbers do not depend on which thread computed it, or on how
         many did (the caller holds BLAS to one thread; numpy lets go of the GIL in its solves)."""
         f1, f2 = self.load[:k], self.load[k:]
 
         def solve(i: int) -> None:
-            wi = w[i : i + chunk, None, None]
+            wi = w[i : i + step, None, None]
             Z11 = A0[None, :k, :k] + 1j * wi * A1[None, :k, :k] - wi**2 * M[None, :k, :k]
             Z12 = A0[None, :k, k:] + 1j * wi * A1[None, :k, k:] - wi**2 * M[None, :k, k:]
             z = d[0][None] + 1j * wi[:, :, 0] * d[1][None] - wi[:, :, 0] ** 2 * d[2][None]  # (c, n_i)
             S = Z11 - (Z12 / z[:, None, :]) @ Z12.transpose(0, 2, 1)  # Z21 = Z12ᵀ: Z is symmetric
             r = f1[None] - (Z12 @ (f2[None] / z)[..., None])[..., 0]
             y1 = np.linalg.solve(S, r[..., None])[..., 0]
-            y[i : i + chunk, :k] = y1
-            y[i : i + chunk, k:] = (f2[None] - (y1[:, None, :] @ Z12)[:, 0]) / z
+            y[i : i + step, :k] = y1
+            y[i : i + step, k:] = (f2[None] - (y1[:, None, :] @ Z12)[:, 0]) / z
 
-        starts = range(0, w.size, chunk)
+        # ``chunk`` frequencies in flight in all: each thread takes its share, so the threads hold
+        # no more memory than one thread did (a chunk of the default ear is about 0.3 GB)
+        step = max(1, chunk // solver_threads())
+        starts = range(0, w.size, step)
         threads = min(solver_threads(), len(starts))
         if threads <= 1:
             for i in starts:
