@@ -140,10 +140,9 @@ def _model(
             _MODELS.pop(scope["new"].pop(0), None)  # the block's oldest model: it is done with it
         if len(_MODELS) >= _MAX_MODELS:
             _MODELS.pop(next(iter(_MODELS)))  # oldest first
-        # every model made here is solved: its analysis runs while it is assembled
-        model = PedicleJointModel(
-            geometry, order=order, resolution=resolution, joint=joint, analyse_ahead=True
-        )
+        # no analysis ahead (ElasticModel.analyse_ahead) here: its 145 MB, held while the model is
+        # assembled, raised a report's peak memory by about 0.2 GB (docs/performance.md §8.10)
+        model = PedicleJointModel(geometry, order=order, resolution=resolution, joint=joint)
         _MODELS[key] = (model, model.mesh.content_hash())
         if scope is not None:
             scope["new"].append(key)
