@@ -20,7 +20,6 @@ bound memory.
 
 from __future__ import annotations
 
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -237,13 +236,8 @@ def combine(
 
     data = np.zeros(pattern.nnz)
     threads = solver_threads()
-    pool = ThreadPoolExecutor(threads) if threads > 1 else None
-    try:
-        for name, rm in regions.items():
-            _add_region(data, _positions(pattern, rm), rm, coef[name], part, pool, threads)
-    finally:
-        if pool is not None:
-            pool.shutdown()
+    for name, rm in regions.items():
+        _add_region(data, _positions(pattern, rm), rm, coef[name], part, threads)
     return data
 
 
@@ -251,7 +245,7 @@ def combine(
 _MIN_PAIRS_PER_THREAD = 20_000
 
 
-def _add_region(data, positions, rm: RegionMatrices, coef, part: str, pool, threads: int) -> None:
+def _add_region(data, positions, rm: RegionMatrices, coef, part: str, threads: int) -> None:
     """``data[positions] += blocks`` for one region, its pairs split among ``threads``.
 
     A stiffness term is added through two buffers made here, each thread filling its own slice
@@ -259,10 +253,12 @@ def _add_region(data, positions, rm: RegionMatrices, coef, part: str, pool, thre
     arenas do not keep a sum's temporaries (docs/performance.md §8.10). The arithmetic is
     ``data[p] + E·blocks[p]``, as with one thread.
     """
+    from .solvers import on_solver_threads
+
     n_pairs = rm.pairs.size
     parts = max(1, min(threads, n_pairs // _MIN_PAIRS_PER_THREAD))
     a, b = coef
-    if pool is None or parts == 1 or part != "stiffness":
+    if parts == 1 or part != "stiffness":
         data[positions] += _blocks(rm, coef, part).ravel()
         return
     scale, flat = (b, rm.mu.reshape(-1)) if a == 0 else (a, rm.lam_plus(b / a).reshape(-1))
@@ -276,20 +272,17 @@ def _add_region(data, positions, rm: RegionMatrices, coef, part: str, pool, thre
         np.add(summed[part_of], term[part_of], out=summed[part_of])
         np.put(data, positions[part_of], summed[part_of], mode="clip")
 
-    for done in [pool.submit(add, i) for i in range(parts)]:
-        done.result()
+    on_solver_threads(add, range(parts))
 
 
-def _blocks(
-    rm: RegionMatrices, coef: tuple[float, float], part: str, lo: int = 0, hi: int | None = None
-) -> np.ndarray:
-    """(p, 3, 3) blocks of one region's term of :func:`combine`, for its pairs ``lo:hi``."""
+def _blocks(rm: RegionMatrices, coef: tuple[float, float], part: str) -> np.ndarray:
+    """(p, 3, 3) blocks of one region's term of :func:`combine`."""
     a, b = coef
     if part == "stiffness":
-        return b * rm.mu[lo:hi] if a == 0 else a * rm.lam_plus(b / a)[lo:hi]
+        return b * rm.mu if a == 0 else a * rm.lam_plus(b / a)
     if rm.mass is None:
         raise ValueError("mass not assembled: call fem.assembly.assemble_mass first")
-    return a * rm.mass[lo:hi, None, None] * np.eye(3)
+    return a * rm.mass[:, None, None] * np.eye(3)
 
 
 def _positions(pattern: Pattern, rm: RegionMatrices) -> np.ndarray:

@@ -162,6 +162,23 @@ def pin_solver_threads(libmkl=None) -> dict[str, int]:
         return dict(_PINNED)
 
 
+def on_solver_threads(fn, items) -> list:
+    """``[fn(x) for x in items]``, computed on up to :func:`solver_threads` threads, in order.
+
+    For work whose numbers do not depend on the thread that computes them (numpy lets go of the
+    GIL in its large operations); callers that use BLAS hold it to one thread
+    (:func:`fem.ear.joint_condensation.one_blas_thread`). One thread, or one item: no pool.
+    """
+    from concurrent.futures import ThreadPoolExecutor
+
+    items = list(items)
+    threads = min(solver_threads(), len(items))
+    if threads <= 1:
+        return [fn(x) for x in items]
+    with ThreadPoolExecutor(threads) as pool:
+        return list(pool.map(fn, items))
+
+
 def lanczos_start(n: int) -> np.ndarray:
     """A fixed start vector for ``scipy.sparse.linalg.eigsh`` (``v0``) on ``n`` unknowns.
 

@@ -46,7 +46,6 @@ import hashlib
 import json
 import time
 import warnings
-from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -61,7 +60,7 @@ from isj.errors import CacheWarning, InvalidParameter
 from isj.responses import delta_columns
 from isj.validate import check_frequencies
 
-from ..solvers import solver_threads
+from ..solvers import on_solver_threads, solver_threads
 from .constraints import rigid_body_modes
 from .joint_condensation import (
     CondensedEar,
@@ -464,12 +463,9 @@ class FastEar:
                 "ob": C[:, B][None] - YC.transpose(0, 2, 1) @ ZXB,
             }
 
-        # the chunks on every core the solver may use, one BLAS thread each (as in batch)
-        starts = range(0, w_all.size, step)
-        with one_blas_thread(), ThreadPoolExecutor(min(solver_threads(), len(starts) or 1)) as pool:
-            chunks = list(pool.map(chunk, starts))
-        out = {k: [c[k] for c in chunks] for k in ("S", "g", "o0", "ob")}
-        res = {k: np.concatenate(v) for k, v in out.items()}
+        with one_blas_thread():  # the chunks on the solver's threads, one BLAS thread each
+            chunks = on_solver_threads(chunk, range(0, w_all.size, step))
+        res = {k: np.concatenate([c[k] for c in chunks]) for k in ("S", "g", "o0", "ob")}
         if len(self._rest_memo) > 8:
             self._rest_memo.clear()
         self._rest_memo[key] = res
@@ -599,9 +595,8 @@ class FastEar:
 
         # blocks on every core, each with one BLAS thread (numpy lets go of the GIL in its solves
         # and products): a block's numbers do not depend on which thread or how many computed it
-        starts = range(0, theta.shape[0], BLOCK)
-        with one_blas_thread(), ThreadPoolExecutor(min(solver_threads(), len(starts) or 1)) as pool:
-            list(pool.map(block, starts))  # each block fills its rows of hv; an error is raised here
+        with one_blas_thread():
+            on_solver_threads(block, range(0, theta.shape[0], BLOCK))  # each fills its rows of hv
         hr = self.rigid(freqs, damping, cavities)
         d = hv / hr[None]
         return {

@@ -27,7 +27,6 @@ from __future__ import annotations
 import hashlib
 import time
 from collections import OrderedDict
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -42,7 +41,7 @@ from isj.errors import InvalidParameter
 from isj.responses import FrequencyResponse
 from isj.validate import check_frequencies
 
-from ..solvers import available_backends, make_indefinite_solver, solver_threads
+from ..solvers import available_backends, make_indefinite_solver, on_solver_threads, solver_threads
 from .dynamics import harmonic
 from .joint_condensation import (
     CondensedEar,
@@ -429,14 +428,7 @@ class ReducedEar:
         # ``chunk`` frequencies in flight in all: each thread takes its share, so the threads hold
         # no more memory than one thread did (a chunk of the default ear is about 0.3 GB)
         step = max(1, chunk // solver_threads())
-        starts = range(0, w.size, step)
-        threads = min(solver_threads(), len(starts))
-        if threads <= 1:
-            for i in starts:
-                solve(i)
-            return
-        with ThreadPoolExecutor(threads) as pool:
-            list(pool.map(solve, starts))  # each chunk fills its rows of y; an error is raised here
+        on_solver_threads(solve, range(0, w.size, step))  # each fills its rows of y
 
     def static(self) -> ReducedEarStaticResult:
         """Undamped static response per Pa: umbo and footplate centre vectors, footplate fit, α, β."""

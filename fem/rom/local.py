@@ -100,13 +100,10 @@ def local_bases(
     sub-box's arrays do not depend on which thread computed it (each runs the same arithmetic;
     callers hold numpy's BLAS to one thread, :func:`fem.ear.joint_condensation.one_blas_thread`).
     """
-    from concurrent.futures import ThreadPoolExecutor
-
-    from ..solvers import solver_threads
+    from ..solvers import on_solver_threads
 
     n_boxes = SPLIT ** len(space.log_lo)
-    with ThreadPoolExecutor(min(solver_threads(), n_boxes)) as pool:
-        done = list(pool.map(lambda box: _local_box(arr, space, box, tol, target, seed), range(n_boxes)))
+    done = on_solver_threads(lambda box: _local_box(arr, space, box, tol, target, seed), range(n_boxes))
     return [b for b, _ in done], [size for _, size in done]
 
 
